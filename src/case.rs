@@ -1,0 +1,345 @@
+//! `impactmc solve`: one impact case in, one JSON result out.
+//!
+//! Raw input ([`CaseInput`], serde, unknown fields rejected) is validated in
+//! one place ([`Case::from_input`]) into physics types; the output
+//! ([`CaseOutput`]) is the public JSON of `impactmc solve` and is also what the
+//! golden tests deserialise.
+
+use glam::{DMat3, DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::physics::{
+    bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, solve_impact, Bryan, Ellipsoid,
+    ImpactOutcome, Law, Plane, Pose, State,
+};
+
+/// Default `contact_tolerance`, relative to the case's length scale
+/// `max(largest semi-axis, |X0|, largest |offset|)`.
+pub const DEFAULT_TOLERANCE_RELATIVE: f64 = 1e-9;
+
+/// A rotation matrix is accepted when `max |AᵀA − I| ≤ this` and det > 0.
+pub const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyInput {
+    pub semi_axes: [f64; 3],
+    pub mass: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum OrientationInput {
+    /// Bryan angles `[ψ, θ, φ]` in degrees, `A = Rx(ψ)Ry(θ)Rz(φ)`.
+    BryanDeg([f64; 3]),
+    /// `[w, x, y, z]`, normalised on input.
+    Quaternion([f64; 4]),
+    /// Rows of A (body → world).
+    Matrix([[f64; 3]; 3]),
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneInput {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    pub normal: [f64; 3],
+    pub offset: f64,
+    pub restitution: f64,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum LawInput {
+    Paper,
+    Newton,
+    Poisson,
+    Pgs { sweeps: u32 },
+}
+
+impl From<LawInput> for Law {
+    fn from(l: LawInput) -> Law {
+        match l {
+            LawInput::Paper => Law::Paper,
+            LawInput::Newton => Law::Newton,
+            LawInput::Poisson => Law::Poisson,
+            LawInput::Pgs { sweeps } => Law::Pgs { sweeps },
+        }
+    }
+}
+
+/// The public input of `impactmc solve`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseInput {
+    pub body: BodyInput,
+    pub orientation: OrientationInput,
+    pub position: [f64; 3],
+    pub velocity: [f64; 3],
+    pub angular_velocity: [f64; 3],
+    pub planes: Vec<PlaneInput>,
+    pub law: LawInput,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_tolerance: Option<f64>,
+}
+
+/// A bad field: its path in the input, what is wrong, and the value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {message}")]
+pub struct FieldError {
+    pub field: String,
+    pub message: String,
+}
+
+impl FieldError {
+    pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
+fn finite3(field: &str, v: [f64; 3]) -> Result<DVec3, FieldError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(DVec3::from_array(v))
+    } else {
+        Err(FieldError::new(
+            field,
+            format!("must be finite, got [{}, {}, {}]", v[0], v[1], v[2]),
+        ))
+    }
+}
+
+/// Rotation from any of the accepted orientation forms, validated.
+pub fn rotation_from_input(field: &str, o: &OrientationInput) -> Result<DMat3, FieldError> {
+    match *o {
+        OrientationInput::BryanDeg(deg) => {
+            let d = finite3(&format!("{field}.bryan_deg"), deg)?;
+            Ok(matrix_from_bryan(Bryan {
+                psi: d.x.to_radians(),
+                theta: d.y.to_radians(),
+                phi: d.z.to_radians(),
+            }))
+        }
+        OrientationInput::Quaternion(q) => {
+            let [w, x, y, z] = q;
+            let norm = (w * w + x * x + y * y + z * z).sqrt();
+            if !(norm.is_finite() && norm > 0.0) {
+                return Err(FieldError::new(
+                    format!("{field}.quaternion"),
+                    format!("must be a finite non-zero quaternion, got [{w}, {x}, {y}, {z}]"),
+                ));
+            }
+            Ok(matrix_from_quaternion(DQuat::from_xyzw(x, y, z, w)))
+        }
+        OrientationInput::Matrix(rows) => {
+            let f = format!("{field}.matrix");
+            for (i, r) in rows.iter().enumerate() {
+                finite3(&format!("{f}[{i}]"), *r)?;
+            }
+            let a = DMat3::from_cols_array_2d(&rows).transpose();
+            let err = (a.transpose() * a - DMat3::IDENTITY)
+                .to_cols_array()
+                .iter()
+                .fold(0f64, |m, x| m.max(x.abs()));
+            let det = a.determinant();
+            if !(err <= ORTHONORMAL_TOLERANCE && det > 0.0) {
+                return Err(FieldError::new(
+                    f,
+                    format!(
+                        "must be a rotation (orthonormal rows, det = +1); max |AᵀA − I| = {err:e}, det = {det}, got {rows:?}"
+                    ),
+                ));
+            }
+            Ok(a)
+        }
+    }
+}
+
+/// A validated case: every value that exists is usable.
+#[derive(Debug, Clone)]
+pub struct Case {
+    pub body: Ellipsoid,
+    pub pose: Pose,
+    pub state: State,
+    pub planes: Vec<Plane>,
+    pub law: Law,
+    pub tolerance: f64,
+}
+
+impl Case {
+    pub fn from_input(input: &CaseInput) -> Result<Self, FieldError> {
+        let body = Ellipsoid::new(input.body.semi_axes, input.body.mass).map_err(|e| {
+            let field = match e {
+                crate::physics::BodyError::SemiAxis { .. } => "body.semi_axes",
+                crate::physics::BodyError::Mass(_) => "body.mass",
+            };
+            FieldError::new(field, e.to_string())
+        })?;
+        let rotation = rotation_from_input("orientation", &input.orientation)?;
+        let centre = finite3("position", input.position)?;
+        let velocity = finite3("velocity", input.velocity)?;
+        let omega = finite3("angular_velocity", input.angular_velocity)?;
+        let planes = input
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
+                    let field = match e {
+                        crate::physics::PlaneError::Normal(_) => "normal",
+                        crate::physics::PlaneError::Offset(_) => "offset",
+                        crate::physics::PlaneError::Restitution(_) => "restitution",
+                    };
+                    FieldError::new(format!("planes[{i}].{field}"), e.to_string())
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        if let LawInput::Pgs { sweeps: 0 } = input.law {
+            return Err(FieldError::new("law.pgs.sweeps", "must be ≥ 1, got 0"));
+        }
+        let tolerance = match input.contact_tolerance {
+            Some(t) if t.is_finite() && t >= 0.0 => t,
+            Some(t) => {
+                return Err(FieldError::new(
+                    "contact_tolerance",
+                    format!("must be a finite number ≥ 0 (metres), got {t}"),
+                ))
+            }
+            None => {
+                let scale = planes
+                    .iter()
+                    .map(|p| p.offset().abs())
+                    .fold(body.length_scale().max(centre.length()), f64::max);
+                DEFAULT_TOLERANCE_RELATIVE * scale
+            }
+        };
+        Ok(Case {
+            body,
+            pose: Pose { rotation, centre },
+            state: State { velocity, omega },
+            planes,
+            law: input.law.into(),
+            tolerance,
+        })
+    }
+
+    /// Solves the case. The only failure is more touching contacts than the
+    /// exact LCP accepts, reported against `planes`.
+    pub fn solve(&self) -> Result<CaseOutput, FieldError> {
+        let outcome = solve_impact(
+            &self.body,
+            self.pose,
+            self.state,
+            &self.planes,
+            self.law,
+            self.tolerance,
+        )
+        .map_err(|e| FieldError::new("planes", e.to_string()))?;
+        Ok(CaseOutput::new(self, &outcome))
+    }
+}
+
+/// One contact in the output, per plane in input order.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+pub struct ContactOutput {
+    pub plane: usize,
+    /// World contact point (m).
+    pub point: [f64; 3],
+    /// Signed distance (m).
+    pub distance: f64,
+    pub touching: bool,
+    pub approaching: bool,
+    pub normal_velocity_before: f64,
+    /// Impulse λ (N·s).
+    pub impulse: f64,
+    pub normal_velocity_after: f64,
+    /// Lever arm ρ in the body frame (m). Extra field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lever_arm: Option<[f64; 3]>,
+    /// Support distance h (m). Extra field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub support_distance: Option<f64>,
+}
+
+/// The public output of `impactmc solve`.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+pub struct CaseOutput {
+    pub contacts: Vec<ContactOutput>,
+    /// Post-impact centre velocity, world frame (m/s).
+    pub velocity: [f64; 3],
+    /// Post-impact angular velocity, body frame (rad/s).
+    pub angular_velocity: [f64; 3],
+    pub energy_before: f64,
+    pub energy_after: f64,
+    /// `energy_gain`, `degenerate`, `jammed`, `unsolved`.
+    pub flags: Vec<String>,
+    /// Extra fields: the law used, the tolerance applied, the Bryan angles
+    /// of the orientation (deg), and the smallest eigenvalue of the scaled G.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub law: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_tolerance: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bryan_deg: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_eigenvalue_scaled: Option<f64>,
+}
+
+impl CaseOutput {
+    fn new(case: &Case, o: &ImpactOutcome) -> Self {
+        let contacts = o
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(i, c)| ContactOutput {
+                plane: i,
+                point: c.geometry.point.to_array(),
+                distance: c.geometry.distance,
+                touching: c.touching,
+                approaching: c.approaching,
+                normal_velocity_before: c.normal_velocity_before,
+                impulse: c.impulse,
+                normal_velocity_after: c.normal_velocity_after,
+                lever_arm: Some(c.geometry.lever.to_array()),
+                support_distance: Some(c.geometry.support),
+            })
+            .collect();
+        let mut flags = Vec::new();
+        for (on, name) in [
+            (o.flags.energy_gain, "energy_gain"),
+            (o.flags.degenerate, "degenerate"),
+            (o.flags.jammed, "jammed"),
+            (o.flags.unsolved, "unsolved"),
+        ] {
+            if on {
+                flags.push(name.to_string());
+            }
+        }
+        let b = bryan_from_matrix(case.pose.rotation);
+        CaseOutput {
+            contacts,
+            velocity: o.after.velocity.to_array(),
+            angular_velocity: o.after.omega.to_array(),
+            energy_before: o.energy_before,
+            energy_after: o.energy_after,
+            flags,
+            law: Some(case.law.name()),
+            contact_tolerance: Some(case.tolerance),
+            bryan_deg: Some([b.psi.to_degrees(), b.theta.to_degrees(), b.phi.to_degrees()]),
+            min_eigenvalue_scaled: Some(o.min_eigenvalue),
+        }
+    }
+}
+
+/// Parses a case from JSON or TOML text. `json` chooses the format; with
+/// `None` the text is JSON when its first non-blank character is `{`.
+pub fn parse_case(text: &str, json: Option<bool>) -> Result<CaseInput, String> {
+    let is_json = json.unwrap_or_else(|| text.trim_start().starts_with('{'));
+    if is_json {
+        serde_json::from_str(text).map_err(|e| format!("invalid case JSON: {e}"))
+    } else {
+        toml::from_str(text).map_err(|e| format!("invalid case TOML: {e}"))
+    }
+}

@@ -1,0 +1,11 @@
+//! impactmc: Monte Carlo statistics of frictionless impacts of a rigid
+//! ellipsoid on one or several planes.
+//!
+//! Data flows one way: config → scene → sampler → kernel → statistics →
+//! output. [`physics`] is the pure f64 reference every fast path is tested
+//! against.
+
+#![deny(unsafe_code)]
+
+pub mod case;
+pub mod physics;

@@ -1,0 +1,24 @@
+//! Pure f64 reference of `shared/physics.md`.
+//!
+//! Nothing in here draws random numbers, spawns threads or writes files: it is
+//! the scalar model that every fast path of the engine is tested against.
+//! Units are SI throughout (m, kg, s, rad).
+
+mod body;
+mod contact;
+mod laws;
+mod lcp;
+mod linalg;
+mod plane;
+mod rotation;
+
+pub use body::{BodyError, Ellipsoid};
+pub use contact::{inverse_inertance, kinetic_energy, ContactGeometry};
+pub use laws::{
+    apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
+    State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
+};
+pub use lcp::{solve_lcp, LcpSolution};
+pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
+pub use plane::{Plane, PlaneError};
+pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};
