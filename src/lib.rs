@@ -8,4 +8,9 @@
 #![deny(unsafe_code)]
 
 pub mod case;
+pub mod config;
+pub mod kernel;
+pub mod lanes;
 pub mod physics;
+pub mod sampler;
+pub mod scene;

@@ -13,7 +13,12 @@ fn solve_stdin(input: &str) -> (i32, String, String) {
         .stderr(Stdio::piped())
         .spawn()
         .expect("binary runs");
-    child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(input.as_bytes())
+        .unwrap();
     let out = child.wait_with_output().unwrap();
     (
         out.status.code().expect("exited, not killed by a signal"),
@@ -33,10 +38,17 @@ const GOOD: &str = r#"{"body": {"semi_axes": [1, 1, 2], "mass": 500},
 #[test]
 fn paper_example_from_configs_solves() {
     let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
-        .args(["solve", concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper_example.json")])
+        .args([
+            "solve",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper_example.json"),
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let contacts = v["contacts"].as_array().unwrap();
     assert_eq!(contacts.len(), 2);
@@ -80,7 +92,11 @@ restitution = 0.5
 #[test]
 fn bad_input_messages() {
     let cases: &[(&str, &str, &str)] = &[
-        (r#""mass": 500"#, r#""mass": -1"#, "body.mass: mass must be a finite number > 0, got -1"),
+        (
+            r#""mass": 500"#,
+            r#""mass": -1"#,
+            "body.mass: mass must be a finite number > 0, got -1",
+        ),
         (
             r#""semi_axes": [1, 1, 2]"#,
             r#""semi_axes": [1, 0, 2]"#,
@@ -96,9 +112,21 @@ fn bad_input_messages() {
             r#""restitution": 1.5"#,
             "planes[1].restitution: restitution must be in [0, 1], got 1.5",
         ),
-        (r#""law": "newton""#, r#""law": "newtonian""#, "unknown variant `newtonian`"),
-        (r#""law": "newton""#, r#""law": "newton", "colour": 1"#, "unknown field `colour`"),
-        (r#""velocity": [-1, -1, 0]"#, r#""velocity": [-1, -1]"#, "invalid length 2"),
+        (
+            r#""law": "newton""#,
+            r#""law": "newtonian""#,
+            "unknown variant `newtonian`",
+        ),
+        (
+            r#""law": "newton""#,
+            r#""law": "newton", "colour": 1"#,
+            "unknown field `colour`",
+        ),
+        (
+            r#""velocity": [-1, -1, 0]"#,
+            r#""velocity": [-1, -1]"#,
+            "invalid length 2",
+        ),
         (
             r#""contact_tolerance": 1e-9"#,
             r#""contact_tolerance": -1"#,
@@ -114,7 +142,11 @@ fn bad_input_messages() {
             r#"{"quaternion": [0, 0, 0, 0]}"#,
             "orientation.quaternion: must be a finite non-zero quaternion, got [0, 0, 0, 0]",
         ),
-        (r#""law": "newton""#, r#""law": {"pgs": {"sweeps": 0}}"#, "law.pgs.sweeps: must be ≥ 1, got 0"),
+        (
+            r#""law": "newton""#,
+            r#""law": {"pgs": {"sweeps": 0}}"#,
+            "law.pgs.sweeps: must be ≥ 1, got 0",
+        ),
     ];
     for (from, to, want) in cases {
         let input = GOOD.replace(from, to);
@@ -124,11 +156,18 @@ fn bad_input_messages() {
         assert!(out.is_empty(), "{to}: stdout {out}");
         assert!(err.contains(want), "{to}: stderr {err:?} lacks {want:?}");
         assert!(!err.contains("panicked"), "{to}: {err}");
-        assert_eq!(err.trim_end().lines().count(), 1, "{to}: one message, got {err:?}");
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{to}: one message, got {err:?}"
+        );
     }
     // NaN cannot be written in JSON, but TOML has it.
     let toml_nan = "law = \"paper\"\nposition = [0.0, 0.0, 1.0]\nvelocity = [0.0, 0.0, nan]\nangular_velocity = [0.0, 0.0, 0.0]\n[body]\nsemi_axes = [1.0, 1.0, 1.0]\nmass = 2.0\n[orientation]\nbryan_deg = [0.0, 0.0, 0.0]\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\noffset = 0.0\nrestitution = 0.5\n";
     let (code, _, err) = solve_stdin(toml_nan);
     assert_eq!(code, 2);
-    assert!(err.contains("velocity: must be finite, got [0, 0, NaN]"), "{err}");
+    assert!(
+        err.contains("velocity: must be finite, got [0, 0, NaN]"),
+        "{err}"
+    );
 }

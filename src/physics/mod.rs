@@ -18,7 +18,7 @@ pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
     State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
 };
-pub use lcp::{solve_lcp, LcpSolution};
+pub use lcp::{solve_lcp, LcpSolution, ACCEPT_RELATIVE, FEASIBILITY_RELATIVE, MAX_LCP_CONTACTS};
 pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
 pub use plane::{Plane, PlaneError};
 pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};

@@ -1,0 +1,122 @@
+//! Scene files as written (TOML, serde, unknown fields rejected). Nothing
+//! here is validated beyond its type: [`crate::scene::Scene`] does that in
+//! one place (ripgrep's raw → validated split).
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawScene {
+    pub name: String,
+    pub samples: u64,
+    pub seed: u64,
+    /// `paper`, `newton`, `poisson` or `pgsN` (N sweeps).
+    pub laws: Vec<String>,
+    /// `f32` or `f64`.
+    #[serde(default = "default_precision")]
+    pub precision: String,
+    /// Metres. Default: 1e-9 × the scene's length scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_tolerance: Option<f64>,
+    /// Samples per work item of the parallel loop (a power of two). Results
+    /// do not depend on it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub batch_size: Option<u64>,
+    pub body: RawBody,
+    pub planes: Vec<RawPlane>,
+    pub placement: RawPlacement,
+    pub orientation: RawOrientation,
+    pub velocity: RawVector,
+    pub angular_velocity: RawVector,
+}
+
+fn default_precision() -> String {
+    "f32".into()
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBody {
+    pub semi_axes: [f64; 3],
+    pub mass: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlane {
+    pub name: String,
+    pub normal: [f64; 3],
+    pub offset: f64,
+    pub restitution: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlacement {
+    /// Names of the planes the body touches; the centre is placed so that
+    /// exactly these touch (1 to 3 planes with independent normals).
+    pub touching: Vec<String>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "distribution", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawOrientation {
+    /// Haar measure on SO(3).
+    Uniform,
+    Fixed {
+        bryan_deg: [f64; 3],
+    },
+    /// ψ, θ, φ independently uniform over degree ranges (not Haar).
+    BryanUniform {
+        psi_deg: [f64; 2],
+        theta_deg: [f64; 2],
+        phi_deg: [f64; 2],
+    },
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "distribution", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawVector {
+    /// Independent normals per component.
+    Normal {
+        mean: [f64; 3],
+        sd: [f64; 3],
+    },
+    /// Independent uniforms per component.
+    Uniform {
+        low: [f64; 3],
+        high: [f64; 3],
+    },
+    Fixed {
+        value: [f64; 3],
+    },
+}
+
+/// Line (1-based) of the value at `path` (e.g. `["planes", "1", "restitution"]`)
+/// in a TOML document, found through the parser's spans.
+pub fn line_of(text: &str, path: &[&str]) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let doc = DeTable::parse(text).ok()?;
+    let mut span = doc.span();
+    let mut table = Some(doc.get_ref());
+    let mut array: Option<&[toml::Spanned<DeValue>]> = None;
+    for key in path {
+        let value = if let Some(t) = table {
+            t.iter()
+                .find(|(k, _)| k.get_ref().as_ref() == *key)
+                .map(|(_, v)| v)?
+        } else {
+            let idx: usize = key.parse().ok()?;
+            array?.get(idx)?
+        };
+        span = value.span();
+        table = None;
+        array = None;
+        match value.get_ref() {
+            DeValue::Table(t) => table = Some(t),
+            DeValue::Array(a) => array = Some(a.as_ref()),
+            _ => {}
+        }
+    }
+    Some(text[..span.start.min(text.len())].matches('\n').count() + 1)
+}

@@ -1,0 +1,588 @@
+//! The SoA impact kernel: closed-form contact geometry and impulses for a
+//! block of samples against the N ≤ 3 planes the placement makes touch.
+//!
+//! Every pass is a branch-free loop over the lanes of a block, written once
+//! for [`Real`] and const N, so the loop vectoriser can use full-width SIMD
+//! (see `lanes.rs`). Laws are chosen per pass, never per sample. Lanes whose
+//! answer the fast path cannot vouch for are flagged [`RECOMPUTE`] and solved
+//! again by the f64 reference in `physics/`:
+//! - G nearly singular: `det S < det_min` (S the unit-diagonal G; by
+//!   Fischer's and Hadamard's inequalities every principal submatrix is then
+//!   at least as well conditioned, so no subset solve can blow up);
+//! - grazing contacts in f32 (`|v_n| < 1e-4 · (|v| + L|ω|)`), where the
+//!   approaching test is not trustworthy;
+//! - energy change in f32 too small to classify `energy_gain`;
+//! - an LCP without an acceptable candidate (jammed, or rounding);
+//! - a plane outside the placement that touches or is penetrated.
+
+use glam::{DMat3, DVec3};
+
+use crate::lanes::{select, Real};
+use crate::physics::{solve_impact, Law, Pose, State};
+use crate::sampler::{Inputs, BLOCK};
+use crate::scene::Scene;
+
+/// Lane status bits.
+pub const APPROACHING_SHIFT: u32 = 0; // bits 0..N: contact i approaching
+pub const ACTIVE_SHIFT: u32 = 4; // bits 4..4+N: λ_i > 0
+pub const RECOMPUTE: u32 = 1 << 8;
+pub const ENERGY_GAIN: u32 = 1 << 9;
+pub const DEGENERATE: u32 = 1 << 10;
+pub const JAMMED: u32 = 1 << 11;
+pub const UNSOLVED: u32 = 1 << 12;
+pub const PENETRATING: u32 = 1 << 13;
+pub const RECOMPUTED: u32 = 1 << 14;
+
+/// Constants of a scene for the kernel, in the lane type.
+#[derive(Debug, Clone)]
+pub struct Consts<T, const N: usize> {
+    normal: [[T; 3]; N],
+    k: [T; N],
+    mass: T,
+    inv_mass: T,
+    inertia: [T; 3],
+    inv_inertia: [T; 3],
+    semi2: [T; 3],
+    /// (b² − c², c² − a², a² − b²), for the lever arm in its sphere-exact form.
+    dsq: [T; 3],
+    nn: [[T; N]; N],
+    length: T,
+    det_min: T,
+    graze: T,
+    accept: T,
+    feasible: T,
+}
+
+impl<T: Real, const N: usize> Consts<T, N> {
+    pub fn new(scene: &Scene) -> Self {
+        assert_eq!(scene.touching().len(), N, "kernel width");
+        let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+        let planes: Vec<_> = scene
+            .touching()
+            .iter()
+            .map(|&i| scene.planes()[i].plane)
+            .collect();
+        let body = scene.body();
+        let s = body.semi_axes();
+        let (a2, b2, c2) = (s.x * s.x, s.y * s.y, s.z * s.z);
+        Self {
+            normal: std::array::from_fn(|i| planes[i].normal().to_array().map(T::from_f64)),
+            k: std::array::from_fn(|i| T::from_f64(planes[i].restitution())),
+            mass: T::from_f64(body.mass()),
+            inv_mass: T::from_f64(1.0 / body.mass()),
+            inertia: body.inertia().to_array().map(T::from_f64),
+            inv_inertia: body.inertia().recip().to_array().map(T::from_f64),
+            semi2: [a2, b2, c2].map(T::from_f64),
+            dsq: [
+                (s.y - s.z) * (s.y + s.z),
+                (s.z - s.x) * (s.z + s.x),
+                (s.x - s.y) * (s.x + s.y),
+            ]
+            .map(T::from_f64),
+            nn: std::array::from_fn(|i| {
+                std::array::from_fn(|j| T::from_f64(planes[i].normal().dot(planes[j].normal())))
+            }),
+            length: T::from_f64(body.length_scale()),
+            det_min: T::from_f64(if f32_lanes { 1e-3 } else { 1e-8 }),
+            graze: T::from_f64(if f32_lanes { 1e-4 } else { 0.0 }),
+            accept: T::from_f64(if f32_lanes {
+                1e-5
+            } else {
+                crate::physics::ACCEPT_RELATIVE
+            }),
+            feasible: T::from_f64(if f32_lanes {
+                1e-3
+            } else {
+                crate::physics::FEASIBILITY_RELATIVE
+            }),
+        }
+    }
+}
+
+/// Contact geometry and pre-impact quantities of a block.
+pub struct Geometry<T, const N: usize> {
+    pub vn: [[T; BLOCK]; N],
+    pub rho: [[[T; BLOCK]; 3]; N],
+    pub g: [[[T; BLOCK]; N]; N],
+    pub t_before: [T; BLOCK],
+    pub status: [u32; BLOCK],
+}
+
+/// Per-law results of a block.
+pub struct LawOut<T, const N: usize> {
+    pub lambda: [[T; BLOCK]; N],
+    pub vn_after: [[T; BLOCK]; N],
+    pub v_after: [[T; BLOCK]; 3],
+    pub w_after: [[T; BLOCK]; 3],
+    pub t_after: [T; BLOCK],
+    pub status: [u32; BLOCK],
+}
+
+impl<T: Real, const N: usize> Geometry<T, N> {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            vn: [[T::ZERO; BLOCK]; N],
+            rho: [[[T::ZERO; BLOCK]; 3]; N],
+            g: [[[T::ZERO; BLOCK]; N]; N],
+            t_before: [T::ZERO; BLOCK],
+            status: [0; BLOCK],
+        })
+    }
+}
+
+impl<T: Real, const N: usize> LawOut<T, N> {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            lambda: [[T::ZERO; BLOCK]; N],
+            vn_after: [[T::ZERO; BLOCK]; N],
+            v_after: [[T::ZERO; BLOCK]; 3],
+            w_after: [[T::ZERO; BLOCK]; 3],
+            t_after: [T::ZERO; BLOCK],
+            status: [0; BLOCK],
+        })
+    }
+}
+
+/// Geometry pass: support points, lever arms, normal velocities, G, T⁻.
+#[inline(always)]
+pub fn geometry<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    out: &mut Geometry<T, N>,
+) {
+    for s in 0..BLOCK {
+        let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+        let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
+        let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
+        let vmag = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let wmag = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        let vscale = vmag + c.length * wmag;
+        let mut rho = [[T::ZERO; 3]; N];
+        let mut status = 0u32;
+        for i in 0..N {
+            let n = c.normal[i];
+            // u = Aᵀ n
+            let u: [T; 3] =
+                std::array::from_fn(|col| a[col] * n[0] + a[3 + col] * n[1] + a[6 + col] * n[2]);
+            let h2 = c.semi2[0] * u[0] * u[0] + c.semi2[1] * u[1] * u[1] + c.semi2[2] * u[2] * u[2];
+            let minus_inv_h = -T::ONE / h2.sqrt();
+            rho[i] = [
+                c.dsq[0] * u[1] * u[2] * minus_inv_h,
+                c.dsq[1] * u[2] * u[0] * minus_inv_h,
+                c.dsq[2] * u[0] * u[1] * minus_inv_h,
+            ];
+            let vn = n[0] * v[0]
+                + n[1] * v[1]
+                + n[2] * v[2]
+                + rho[i][0] * w[0]
+                + rho[i][1] * w[1]
+                + rho[i][2] * w[2];
+            out.vn[i][s] = vn;
+            for k in 0..3 {
+                out.rho[i][k][s] = rho[i][k];
+            }
+            status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
+            status |= ((vn.abs() < c.graze * vscale) as u32) * RECOMPUTE;
+        }
+        let mut g = [[T::ZERO; N]; N];
+        for i in 0..N {
+            for j in 0..N {
+                g[i][j] = c.nn[i][j] * c.inv_mass
+                    + rho[i][0] * rho[j][0] * c.inv_inertia[0]
+                    + rho[i][1] * rho[j][1] * c.inv_inertia[1]
+                    + rho[i][2] * rho[j][2] * c.inv_inertia[2];
+                out.g[i][j][s] = g[i][j];
+            }
+        }
+        let det_s = scaled_det(&g);
+        status |= ((!(det_s >= c.det_min)) as u32) * RECOMPUTE;
+        out.t_before[s] = T::HALF * c.mass * vmag * vmag
+            + T::HALF
+                * (c.inertia[0] * w[0] * w[0]
+                    + c.inertia[1] * w[1] * w[1]
+                    + c.inertia[2] * w[2] * w[2]);
+        out.status[s] = status;
+    }
+}
+
+/// det of the unit-diagonal scaling of G.
+#[inline(always)]
+fn scaled_det<T: Real, const N: usize>(g: &[[T; N]; N]) -> T {
+    match N {
+        1 => T::ONE,
+        2 => T::ONE - g[0][1] * g[0][1] / (g[0][0] * g[1][1]),
+        _ => {
+            let det = g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1])
+                - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0])
+                + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
+            det / (g[0][0] * g[1][1] * g[2][2])
+        }
+    }
+}
+
+/// Solves `G_SS λ_S = −q_S` for the subset MASK in closed form.
+#[inline(always)]
+fn solve_subset<T: Real, const N: usize, const MASK: usize>(g: &[[T; N]; N], q: &[T; N]) -> [T; N] {
+    let mut idx = [0usize; 3];
+    let mut m = 0;
+    for i in 0..N {
+        if MASK & (1 << i) != 0 {
+            idx[m] = i;
+            m += 1;
+        }
+    }
+    let mut lam = [T::ZERO; N];
+    match m {
+        1 => {
+            let i = idx[0];
+            lam[i] = -q[i] / g[i][i];
+        }
+        2 => {
+            let (i, j) = (idx[0], idx[1]);
+            let det = g[i][i] * g[j][j] - g[i][j] * g[i][j];
+            lam[i] = (-q[i] * g[j][j] + q[j] * g[i][j]) / det;
+            lam[j] = (-q[j] * g[i][i] + q[i] * g[i][j]) / det;
+        }
+        _ => {
+            // Cramer with the symmetric cofactors of the full 3×3.
+            let c00 = g[1][1] * g[2][2] - g[1][2] * g[1][2];
+            let c01 = g[0][2] * g[1][2] - g[0][1] * g[2][2];
+            let c02 = g[0][1] * g[1][2] - g[0][2] * g[1][1];
+            let c11 = g[0][0] * g[2][2] - g[0][2] * g[0][2];
+            let c12 = g[0][1] * g[0][2] - g[0][0] * g[1][2];
+            let c22 = g[0][0] * g[1][1] - g[0][1] * g[0][1];
+            let det = g[0][0] * c00 + g[0][1] * c01 + g[0][2] * c02;
+            let inv = -T::ONE / det;
+            let r = [
+                (c00 * q[0] + c01 * q[1] + c02 * q[2]) * inv,
+                (c01 * q[0] + c11 * q[1] + c12 * q[2]) * inv,
+                (c02 * q[0] + c12 * q[1] + c22 * q[2]) * inv,
+            ];
+            for i in 0..N {
+                lam[i] = r[i];
+            }
+        }
+    }
+    lam
+}
+
+/// Largest violation of `λ ≥ 0` (as `−λ_i G_ii`) on the support and of
+/// `w = q + Gλ ≥ 0` off it.
+#[inline(always)]
+fn violation<T: Real, const N: usize, const MASK: usize>(
+    g: &[[T; N]; N],
+    q: &[T; N],
+    lam: &[T; N],
+) -> T {
+    let mut v = T::ZERO;
+    for i in 0..N {
+        let term = if MASK & (1 << i) != 0 {
+            -lam[i] * g[i][i]
+        } else {
+            let mut w = q[i];
+            for j in 0..N {
+                w += g[i][j] * lam[j];
+            }
+            -w
+        };
+        v = v.max(term);
+    }
+    v
+}
+
+/// Running choice among LCP candidates: the first whose violation is at
+/// rounding level, else the least violating (the rule of `physics::lcp`).
+struct Choice<T, const N: usize> {
+    lam: [T; N],
+    viol: T,
+    found: bool,
+}
+
+impl<T: Real, const N: usize> Choice<T, N> {
+    #[inline(always)]
+    fn offer<const MASK: usize>(&mut self, g: &[[T; N]; N], q: &[T; N], accept: T) {
+        let lam = solve_subset::<T, N, MASK>(g, q);
+        let viol = violation::<T, N, MASK>(g, q, &lam);
+        let take = !self.found && (viol <= accept || viol < self.viol);
+        for i in 0..N {
+            self.lam[i] = select(take, lam[i], self.lam[i]);
+        }
+        self.viol = select(take, viol, self.viol);
+        self.found |= viol <= accept;
+    }
+}
+
+/// Exact LCP(q, G) for N ≤ 3 by enumeration in (size, mask) order. Returns
+/// λ (clamped ≥ 0) and whether a candidate met the feasibility tolerance.
+#[inline(always)]
+fn lcp_lane<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    g: &[[T; N]; N],
+    q: &[T; N],
+) -> ([T; N], bool) {
+    let mut scale = T::ZERO;
+    let mut viol0 = T::ZERO;
+    for i in 0..N {
+        scale = scale.max(q[i].abs());
+        viol0 = viol0.max(-q[i]);
+    }
+    let accept = c.accept * scale;
+    let mut ch = Choice {
+        lam: [T::ZERO; N],
+        viol: viol0,
+        found: viol0 <= accept,
+    };
+    match N {
+        1 => ch.offer::<1>(g, q, accept),
+        2 => {
+            ch.offer::<1>(g, q, accept);
+            ch.offer::<2>(g, q, accept);
+            ch.offer::<3>(g, q, accept);
+        }
+        _ => {
+            ch.offer::<1>(g, q, accept);
+            ch.offer::<2>(g, q, accept);
+            ch.offer::<4>(g, q, accept);
+            ch.offer::<3>(g, q, accept);
+            ch.offer::<5>(g, q, accept);
+            ch.offer::<6>(g, q, accept);
+            ch.offer::<7>(g, q, accept);
+        }
+    }
+    let ok = ch.viol <= c.feasible * scale;
+    (ch.lam.map(|l| l.max(T::ZERO)), ok)
+}
+
+#[inline(always)]
+fn lane_g<T: Real, const N: usize>(geo: &Geometry<T, N>, s: usize) -> [[T; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| geo.g[i][j][s]))
+}
+
+/// Impulse pass for the exact laws and the paper's law.
+#[inline(always)]
+pub fn impulses<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    law: Law,
+    geo: &Geometry<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    match law {
+        Law::Paper => {
+            for s in 0..BLOCK {
+                for i in 0..N {
+                    let vn = geo.vn[i][s];
+                    out.lambda[i][s] = select(
+                        vn < T::ZERO,
+                        -(T::ONE + c.k[i]) * vn / geo.g[i][i][s],
+                        T::ZERO,
+                    );
+                }
+                out.status[s] = geo.status[s];
+            }
+        }
+        Law::Newton => {
+            for s in 0..BLOCK {
+                let g = lane_g(geo, s);
+                let q: [T; N] = std::array::from_fn(|i| {
+                    let vn = geo.vn[i][s];
+                    vn + c.k[i] * vn.min(T::ZERO)
+                });
+                let (lam, ok) = lcp_lane(c, &g, &q);
+                for i in 0..N {
+                    out.lambda[i][s] = lam[i];
+                }
+                out.status[s] = geo.status[s] | ((!ok) as u32) * RECOMPUTE;
+            }
+        }
+        Law::Poisson => {
+            for s in 0..BLOCK {
+                let g = lane_g(geo, s);
+                let v: [T; N] = std::array::from_fn(|i| geo.vn[i][s]);
+                let (lc, ok1) = lcp_lane(c, &g, &v);
+                let klc: [T; N] = std::array::from_fn(|i| c.k[i] * lc[i]);
+                let q: [T; N] = std::array::from_fn(|i| {
+                    let mut x = v[i];
+                    for j in 0..N {
+                        x += g[i][j] * (lc[j] + klc[j]);
+                    }
+                    x
+                });
+                let (mu, ok2) = lcp_lane(c, &g, &q);
+                for i in 0..N {
+                    out.lambda[i][s] = lc[i] + klc[i] + mu[i];
+                }
+                out.status[s] = geo.status[s] | ((!(ok1 && ok2)) as u32) * RECOMPUTE;
+            }
+        }
+        Law::Pgs { sweeps } => {
+            for i in 0..N {
+                out.lambda[i] = [T::ZERO; BLOCK];
+            }
+            // Sweeps outermost, so the inner loop over lanes vectorises.
+            for _ in 0..sweeps {
+                for s in 0..BLOCK {
+                    let mut lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
+                    for i in 0..N {
+                        let vn = geo.vn[i][s];
+                        let mut w = vn + c.k[i] * vn.min(T::ZERO);
+                        for j in 0..N {
+                            w += geo.g[i][j][s] * lam[j];
+                        }
+                        lam[i] = (lam[i] - w / geo.g[i][i][s]).max(T::ZERO);
+                    }
+                    for i in 0..N {
+                        out.lambda[i][s] = lam[i];
+                    }
+                }
+            }
+            out.status = geo.status;
+        }
+    }
+}
+
+/// Post pass: velocities, normal velocities and energy after the impulses.
+#[inline(always)]
+pub fn post<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
+    let ambiguous = T::from_f64(1e-4);
+    for s in 0..BLOCK {
+        let lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
+        let mut dv = [T::ZERO; 3];
+        let mut dl = [T::ZERO; 3];
+        let mut active = 0u32;
+        for i in 0..N {
+            for k in 0..3 {
+                dv[k] += lam[i] * c.normal[i][k];
+                dl[k] += lam[i] * geo.rho[i][k][s];
+            }
+            active |= ((lam[i] > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
+        }
+        let v: [T; 3] = std::array::from_fn(|k| x.v[k][s] + dv[k] * c.inv_mass);
+        let w: [T; 3] = std::array::from_fn(|k| x.w[k][s] + dl[k] * c.inv_inertia[k]);
+        let mut work = T::ZERO;
+        for i in 0..N {
+            let mut vn = geo.vn[i][s];
+            for j in 0..N {
+                vn += geo.g[i][j][s] * lam[j];
+            }
+            out.vn_after[i][s] = vn;
+            work += lam[i] * (geo.vn[i][s] + vn);
+        }
+        let t0 = geo.t_before[s];
+        let direct = T::HALF * c.mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+            + T::HALF
+                * (c.inertia[0] * w[0] * w[0]
+                    + c.inertia[1] * w[1] * w[1]
+                    + c.inertia[2] * w[2] * w[2]);
+        // f32: T⁺ = T⁻ + ΔT with ΔT = ½Σλ(v_n⁻ + v_n⁺) exactly (physics.md),
+        // accurate relative to ΔT rather than to T.
+        let dt = T::HALF * work;
+        let t1 = if f32_lanes { t0 + dt } else { direct };
+        let gained = if f32_lanes {
+            dt > gain * t0
+        } else {
+            t1 > t0 + gain * t0
+        };
+        let unsure = f32_lanes && dt.abs() <= ambiguous * t0 && active != 0;
+        for k in 0..3 {
+            out.v_after[k][s] = v[k];
+            out.w_after[k][s] = w[k];
+        }
+        out.t_after[s] = t1;
+        out.status[s] |= active | (gained as u32) * ENERGY_GAIN | (unsure as u32) * RECOMPUTE;
+    }
+}
+
+/// Marks lanes where a plane outside the placement touches or is penetrated
+/// (the f64 reference then decides). `extra` holds (plane index, column of
+/// the placement for each touching plane) for the planes not touching.
+pub fn check_extra_planes<T: Real, const N: usize>(
+    scene: &Scene,
+    x: &Inputs<T>,
+    geo: &mut Geometry<T, N>,
+    count: usize,
+) {
+    if scene.planes().len() == N {
+        return;
+    }
+    for (s, status) in geo.status.iter_mut().enumerate().take(count) {
+        let a = lane_matrix(x, s);
+        let centre = scene.centre(a);
+        for (j, p) in scene.planes().iter().enumerate() {
+            if scene.touching().contains(&j) {
+                continue;
+            }
+            let u = a.transpose() * p.plane.normal();
+            let h = (scene.body().semi_axes() * u).length();
+            let d = p.plane.signed_distance(centre) - h;
+            if d <= scene.tolerance() {
+                *status |= RECOMPUTE;
+            }
+        }
+    }
+}
+
+fn lane_matrix<T: Real>(x: &Inputs<T>, s: usize) -> DMat3 {
+    let r: [f64; 9] = std::array::from_fn(|k| x.a[k][s].to_f64());
+    DMat3::from_cols_array(&r).transpose()
+}
+
+/// Solves flagged lanes again with the f64 reference on the same inputs and
+/// writes the answers back, with the reference's flags.
+pub fn recompute<T: Real, const N: usize>(
+    scene: &Scene,
+    law: Law,
+    x: &Inputs<T>,
+    out: &mut LawOut<T, N>,
+    count: usize,
+) {
+    let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
+    for s in 0..count {
+        if out.status[s] & RECOMPUTE == 0 {
+            continue;
+        }
+        let a = lane_matrix(x, s);
+        let state = State {
+            velocity: DVec3::new(x.v[0][s].to_f64(), x.v[1][s].to_f64(), x.v[2][s].to_f64()),
+            omega: DVec3::new(x.w[0][s].to_f64(), x.w[1][s].to_f64(), x.w[2][s].to_f64()),
+        };
+        let pose = Pose {
+            rotation: a,
+            centre: scene.centre(a),
+        };
+        let mut status = RECOMPUTED;
+        let Ok(o) = solve_impact(scene.body(), pose, state, &planes, law, scene.tolerance()) else {
+            out.status[s] = status | UNSOLVED;
+            continue;
+        };
+        if o.contacts
+            .iter()
+            .any(|c| c.geometry.distance < -scene.tolerance())
+        {
+            status |= PENETRATING;
+        }
+        for (i, &p) in scene.touching().iter().enumerate() {
+            let ct = &o.contacts[p];
+            out.lambda[i][s] = T::from_f64(ct.impulse);
+            out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
+            status |= ((ct.impulse > 0.0) as u32) << (ACTIVE_SHIFT + i as u32);
+            status |= (ct.approaching as u32) << (APPROACHING_SHIFT + i as u32);
+        }
+        for k in 0..3 {
+            out.v_after[k][s] = T::from_f64(o.after.velocity[k]);
+            out.w_after[k][s] = T::from_f64(o.after.omega[k]);
+        }
+        out.t_after[s] = T::from_f64(o.energy_after);
+        status |= (o.flags.energy_gain as u32) * ENERGY_GAIN
+            | (o.flags.degenerate as u32) * DEGENERATE
+            | (o.flags.jammed as u32) * JAMMED
+            | (o.flags.unsolved as u32) * UNSOLVED;
+        out.status[s] = status;
+    }
+}

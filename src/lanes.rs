@@ -1,0 +1,334 @@
+//! Lane arithmetic: the one place that knows how the kernel vectorises.
+//!
+//! The kernel is written once, per sample, over a [`Real`] (f32 or f64), in
+//! loops over structure-of-arrays blocks with no branches, no calls that are
+//! not inlined and no allocation, so that LLVM's loop vectoriser turns each
+//! loop into full-width SIMD. The block functions are compiled several times
+//! with `multiversion` (AVX-512, AVX2+FMA, baseline SSE2) and the widest one
+//! the CPU supports is chosen at run time: no `-C target-cpu=native` needed.
+//! No code here calls `mul_add`, so every target rounds identically and the
+//! results do not depend on the machine's SIMD width.
+//!
+//! `ln` and `sin_cos_2pi` are our own branch-free polynomial versions (libm's
+//! do not vectorise). They are accurate to a few ulp of each type and are
+//! tested against `std` below.
+
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+
+/// A floating-point lane type: f32 or f64.
+pub trait Real:
+    Copy
+    + Send
+    + Sync
+    + Default
+    + PartialOrd
+    + std::fmt::Debug
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + 'static
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const HALF: Self;
+    /// Machine epsilon.
+    const EPSILON: Self;
+    /// Name used in tables: "f32" or "f64".
+    const NAME: &'static str;
+
+    fn from_f64(x: f64) -> Self;
+    fn to_f64(self) -> f64;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    fn min(self, o: Self) -> Self;
+    fn max(self, o: Self) -> Self;
+    /// A uniform draw in the open interval (0, 1) from 64 random bits
+    /// (the top 23 bits for f32, so that k + ½ is exact, and the top 52 for f64).
+    fn uniform(bits: u64) -> Self;
+    /// Natural logarithm for finite `x > 0`.
+    fn ln(self) -> Self;
+    /// `(sin 2πx, cos 2πx)` for any finite x.
+    fn sin_cos_2pi(self) -> (Self, Self);
+}
+
+/// `if c { a } else { b }` as a value (a blend when vectorised).
+#[inline(always)]
+pub fn select<T: Real>(c: bool, a: T, b: T) -> T {
+    if c {
+        a
+    } else {
+        b
+    }
+}
+
+macro_rules! real_impl {
+    ($t:ty, $bits:ty, $mant:expr, $bias:expr, $name:expr, $uniform:expr,
+     ln_coeffs = [$($lc:expr),*], sin_coeffs = [$($sc:expr),*], cos_coeffs = [$($cc:expr),*]) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const HALF: Self = 0.5;
+            const EPSILON: Self = <$t>::EPSILON;
+            const NAME: &'static str = $name;
+
+            #[inline(always)]
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                if self < o { self } else { o }
+            }
+            #[inline(always)]
+            fn max(self, o: Self) -> Self {
+                if self > o { self } else { o }
+            }
+            #[inline(always)]
+            fn uniform(bits: u64) -> Self {
+                let f: fn(u64) -> $t = $uniform;
+                f(bits)
+            }
+            #[inline(always)]
+            fn ln(self) -> Self {
+                // x = m·2^e with m in [√½, √2); ln m = 2 atanh(s), s = (m−1)/(m+1).
+                let bits = self.to_bits();
+                let raw_exp = ((bits >> $mant) as i64) - $bias;
+                let mant_bits = (bits & (((1 as $bits) << $mant) - 1)) | (($bias as $bits) << $mant);
+                let m = <$t>::from_bits(mant_bits); // in [1, 2)
+                let big = m > core::f64::consts::SQRT_2 as $t;
+                let m = if big { m * 0.5 } else { m };
+                let e = (raw_exp + big as i64) as $t;
+                let s = (m - 1.0) / (m + 1.0);
+                let s2 = s * s;
+                let mut p: $t = 0.0;
+                for c in [$($lc),*].iter().rev() {
+                    p = p * s2 + (*c as $t);
+                }
+                2.0 * s * p + e * core::f64::consts::LN_2 as $t
+            }
+            #[inline(always)]
+            fn sin_cos_2pi(self) -> (Self, Self) {
+                // Quarter turns: t = 4x = q + r, |r| ≤ ½, angle r·π/2 ≤ π/4.
+                let t = self * 4.0;
+                let q = t.round_ties_even();
+                let r = t - q;
+                let a = r * core::f64::consts::FRAC_PI_2 as $t;
+                let a2 = a * a;
+                let mut sp: $t = 0.0;
+                for c in [$($sc),*].iter().rev() {
+                    sp = sp * a2 + (*c as $t);
+                }
+                let mut cp: $t = 0.0;
+                for c in [$($cc),*].iter().rev() {
+                    cp = cp * a2 + (*c as $t);
+                }
+                let s = a * sp;
+                let c = cp;
+                let quadrant = (q as i64) & 3;
+                let (s1, c1) = if quadrant & 1 == 1 { (c, -s) } else { (s, c) };
+                if quadrant & 2 == 2 { (-s1, -c1) } else { (s1, c1) }
+            }
+        }
+    };
+}
+
+// atanh series 1 + s²/3 + s⁴/5 + … ; |s| ≤ 0.1716.
+// sin a = a(1 − a²/6 + …), cos a = 1 − a²/2 + …, |a| ≤ π/4.
+real_impl!(
+    f32,
+    u32,
+    23,
+    127,
+    "f32",
+    |bits| ((bits >> 41) as u32 as f32 + 0.5) * (1.0 / 8_388_608.0),
+    ln_coeffs = [1.0, 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0, 1.0 / 9.0],
+    sin_coeffs = [1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0],
+    cos_coeffs = [
+        1.0,
+        -1.0 / 2.0,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40320.0,
+        -1.0 / 3628800.0
+    ]
+);
+real_impl!(
+    f64,
+    u64,
+    52,
+    1023,
+    "f64",
+    |bits| ((bits >> 12) as i64 as f64 + 0.5) * (1.0 / 4_503_599_627_370_496.0),
+    ln_coeffs = [
+        1.0,
+        1.0 / 3.0,
+        1.0 / 5.0,
+        1.0 / 7.0,
+        1.0 / 9.0,
+        1.0 / 11.0,
+        1.0 / 13.0,
+        1.0 / 15.0,
+        1.0 / 17.0,
+        1.0 / 19.0,
+        1.0 / 21.0
+    ],
+    sin_coeffs = [
+        1.0,
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362880.0,
+        -1.0 / 39916800.0,
+        1.0 / 6227020800.0,
+        -1.0 / 1307674368000.0,
+        1.0 / 355687428096000.0
+    ],
+    cos_coeffs = [
+        1.0,
+        -1.0 / 2.0,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40320.0,
+        -1.0 / 3628800.0,
+        1.0 / 479001600.0,
+        -1.0 / 87178291200.0,
+        1.0 / 20922789888000.0,
+        -1.0 / 6402373705728000.0
+    ]
+);
+
+/// SplitMix64's output function (Steele, Lea & Flood 2014).
+#[inline(always)]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// A counter-based generator: draw `j` of sample `i` is a pure function of
+/// (seed, i, j), namely SplitMix64 at position `i·draws + j` of the stream
+/// keyed by the seed. Any sample can be drawn in any order, on any thread,
+/// in any lane, with the same result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CounterRng {
+    key: u64,
+    draws_per_sample: u64,
+}
+
+impl CounterRng {
+    pub fn new(seed: u64, draws_per_sample: u32) -> Self {
+        Self {
+            key: mix64(seed ^ 0x6a09_e667_f3bc_c909),
+            draws_per_sample: draws_per_sample as u64,
+        }
+    }
+
+    /// 64 random bits for draw `j` of sample `i`.
+    #[inline(always)]
+    pub fn bits(&self, sample: u64, j: u32) -> u64 {
+        let position = sample
+            .wrapping_mul(self.draws_per_sample)
+            .wrapping_add(j as u64);
+        mix64(self.key.wrapping_add(position.wrapping_mul(GOLDEN_GAMMA)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ln_matches_std() {
+        let mut worst32 = 0f64;
+        let mut worst64 = 0f64;
+        for i in 1..20000 {
+            let x = (i as f64 / 20000.0).powi(3) * 3.0 + 1e-30 * i as f64;
+            let e64 = (Real::ln(x) - x.ln()).abs() / x.ln().abs().max(1.0);
+            let x32 = x as f32;
+            let e32 =
+                (Real::ln(x32) as f64 - (x32 as f64).ln()).abs() / (x32 as f64).ln().abs().max(1.0);
+            worst64 = worst64.max(e64);
+            worst32 = worst32.max(e32);
+        }
+        assert!(worst64 < 4.0 * f64::EPSILON, "f64 ln error {worst64:e}");
+        assert!(
+            worst32 < 4.0 * f32::EPSILON as f64,
+            "f32 ln error {worst32:e}"
+        );
+        assert!((Real::ln(f64::MIN_POSITIVE) - f64::MIN_POSITIVE.ln()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sin_cos_match_std() {
+        let mut worst64 = 0f64;
+        let mut worst32 = 0f64;
+        for i in 0..=40000 {
+            let x = i as f64 / 40000.0 * 2.0 - 0.5;
+            let (s, c) = Real::sin_cos_2pi(x);
+            let (ss, cc) = (std::f64::consts::TAU * x).sin_cos();
+            // std's argument 2πx itself carries a rounding of 2π|x|·ε.
+            let allowance = 1.0 + std::f64::consts::TAU * x.abs();
+            worst64 = worst64
+                .max((s - ss).abs() / allowance)
+                .max((c - cc).abs() / allowance);
+            let (s32, c32) = Real::sin_cos_2pi(x as f32);
+            let (ss, cc) = (std::f64::consts::TAU * (x as f32) as f64).sin_cos();
+            worst32 = worst32
+                .max((s32 as f64 - ss).abs())
+                .max((c32 as f64 - cc).abs());
+        }
+        assert!(
+            worst64 < 4.0 * f64::EPSILON,
+            "f64 sin/cos error {worst64:e}"
+        );
+        assert!(
+            worst32 < 4.0 * f32::EPSILON as f64,
+            "f32 sin/cos error {worst32:e}"
+        );
+    }
+
+    #[test]
+    fn uniforms_are_open_interval() {
+        assert!(<f32 as Real>::uniform(0) > 0.0 && <f32 as Real>::uniform(u64::MAX) < 1.0);
+        assert!(<f64 as Real>::uniform(0) > 0.0 && <f64 as Real>::uniform(u64::MAX) < 1.0);
+    }
+
+    /// Value stability: these draws are frozen. Changing them changes every
+    /// seeded result, which needs a deliberate decision (and a version bump).
+    #[test]
+    fn counter_rng_value_stability() {
+        let rng = CounterRng::new(42, 9);
+        let got: Vec<u64> = [(0, 0), (0, 8), (1, 0), (1_000_000_007, 3)]
+            .iter()
+            .map(|&(i, j)| rng.bits(i, j))
+            .collect();
+        // Computed once from the definition above with an independent
+        // Python implementation of SplitMix64 (see the comment in README).
+        let want = FROZEN_DRAWS;
+        assert_eq!(got, want);
+    }
+
+    const FROZEN_DRAWS: [u64; 4] = [
+        8311185812566880691,
+        3469547473384566002,
+        14645609727746836998,
+        4960029007365554630,
+    ];
+}

@@ -1,0 +1,537 @@
+//! A validated scene: built in one place from a [`RawScene`], with private
+//! invariants (a `Scene` that exists can be run). Errors name the file, the
+//! field path, its line and the offending value.
+
+use std::path::Path;
+
+use glam::{DMat3, DVec3};
+
+use crate::config::{line_of, RawOrientation, RawScene, RawVector};
+use crate::physics::{matrix_from_bryan, Bryan, Ellipsoid, Law, Plane, SymMatrix};
+
+/// Floating-point type of the kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+impl Precision {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
+/// Orientation distribution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OrientationDist {
+    /// Haar measure on SO(3), via uniform unit quaternions.
+    Uniform,
+    Fixed(DMat3),
+    /// Bryan angles (radians) uniform in `[low, high]` per angle (ψ, θ, φ).
+    BryanUniform {
+        low: DVec3,
+        high: DVec3,
+    },
+}
+
+/// Distribution of a 3-vector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VectorDist {
+    Normal { mean: DVec3, sd: DVec3 },
+    Uniform { low: DVec3, high: DVec3 },
+    Fixed(DVec3),
+}
+
+/// A plane with its scene name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedPlane {
+    pub name: String,
+    pub plane: Plane,
+}
+
+/// A scene error: where, what, and the value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}{}: {field}: {message}", .line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct SceneError {
+    pub file: String,
+    pub line: Option<usize>,
+    pub field: String,
+    pub message: String,
+}
+
+/// Default contact tolerance relative to the scene's length scale.
+pub const DEFAULT_TOLERANCE_RELATIVE: f64 = 1e-9;
+
+/// Largest sample count accepted (the sample index is a u64 counter; 2^53
+/// keeps every count exact in f64 statistics).
+pub const MAX_SAMPLES: u64 = 1 << 53;
+
+#[derive(Debug, Clone)]
+pub struct Scene {
+    name: String,
+    samples: u64,
+    seed: u64,
+    laws: Vec<Law>,
+    precision: Precision,
+    tolerance: f64,
+    batch_size: u64,
+    body: Ellipsoid,
+    planes: Vec<NamedPlane>,
+    touching: Vec<usize>,
+    /// X0 = Σ_i placement[i] · (h_i − e_i) over the touching planes.
+    placement: Vec<DVec3>,
+    orientation: OrientationDist,
+    velocity: VectorDist,
+    angular_velocity: VectorDist,
+    raw: RawScene,
+}
+
+/// A field error before the file and line are known.
+struct Bad {
+    path: Vec<String>,
+    message: String,
+}
+
+fn bad(path: &[&str], message: impl Into<String>) -> Bad {
+    Bad {
+        path: path.iter().map(|s| s.to_string()).collect(),
+        message: message.into(),
+    }
+}
+
+fn finite3(path: &[&str], v: [f64; 3]) -> Result<DVec3, Bad> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(DVec3::from_array(v))
+    } else {
+        Err(bad(path, format!("must be finite, got {v:?}")))
+    }
+}
+
+/// Parses `paper`, `newton`, `poisson`, `pgsN`.
+pub fn parse_law(s: &str) -> Option<Law> {
+    match s {
+        "paper" => Some(Law::Paper),
+        "newton" => Some(Law::Newton),
+        "poisson" => Some(Law::Poisson),
+        _ => {
+            let n: u32 = s.strip_prefix("pgs")?.parse().ok()?;
+            (n >= 1).then_some(Law::Pgs { sweeps: n })
+        }
+    }
+}
+
+fn vector_dist(field: &str, raw: &RawVector) -> Result<VectorDist, Bad> {
+    Ok(match *raw {
+        RawVector::Normal { mean, sd } => {
+            let mean = finite3(&[field, "mean"], mean)?;
+            let sd_v = finite3(&[field, "sd"], sd)?;
+            if sd_v.min_element() < 0.0 {
+                return Err(bad(&[field, "sd"], format!("must be ≥ 0, got {sd:?}")));
+            }
+            VectorDist::Normal { mean, sd: sd_v }
+        }
+        RawVector::Uniform { low, high } => {
+            let l = finite3(&[field, "low"], low)?;
+            let h = finite3(&[field, "high"], high)?;
+            if (0..3).any(|i| l[i] > h[i]) {
+                return Err(bad(
+                    &[field, "high"],
+                    format!("must be ≥ low {low:?}, got {high:?}"),
+                ));
+            }
+            VectorDist::Uniform { low: l, high: h }
+        }
+        RawVector::Fixed { value } => VectorDist::Fixed(finite3(&[field, "value"], value)?),
+    })
+}
+
+impl Scene {
+    /// Reads, parses and validates a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: file.clone(),
+            line: None,
+            field: "(file)".into(),
+            message: e.to_string(),
+        })?;
+        let raw = Self::parse(&file, &text)?;
+        Self::validate(&file, &text, raw)
+    }
+
+    /// Parses scene text into its raw form; a syntax or type error names the
+    /// line.
+    pub fn parse(file: &str, text: &str) -> Result<RawScene, SceneError> {
+        toml::from_str(text).map_err(|e: toml::de::Error| SceneError {
+            file: file.to_string(),
+            line: e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1),
+            field: "(toml)".into(),
+            message: e.message().trim().to_string(),
+        })
+    }
+
+    /// Validates a raw scene; `text` is the file it came from (for lines).
+    pub fn validate(file: &str, text: &str, raw: RawScene) -> Result<Self, SceneError> {
+        Self::from_raw(raw).map_err(|b| {
+            let path: Vec<&str> = b.path.iter().map(String::as_str).collect();
+            let line = (1..=path.len())
+                .rev()
+                .find_map(|n| line_of(text, &path[..n]));
+            let field = b.path.iter().fold(String::new(), |acc, seg| {
+                if seg.parse::<usize>().is_ok() {
+                    format!("{acc}[{seg}]")
+                } else if acc.is_empty() {
+                    seg.clone()
+                } else {
+                    format!("{acc}.{seg}")
+                }
+            });
+            SceneError {
+                file: file.to_string(),
+                line,
+                field,
+                message: b.message,
+            }
+        })
+    }
+
+    fn from_raw(raw: RawScene) -> Result<Self, Bad> {
+        if raw.name.trim().is_empty() || raw.name.contains(['/', '\\']) {
+            return Err(bad(
+                &["name"],
+                format!(
+                    "must be a non-empty name without slashes, got {:?}",
+                    raw.name
+                ),
+            ));
+        }
+        if !(1..=MAX_SAMPLES).contains(&raw.samples) {
+            return Err(bad(
+                &["samples"],
+                format!("must be in 1..=2^53, got {}", raw.samples),
+            ));
+        }
+        if raw.laws.is_empty() {
+            return Err(bad(&["laws"], "must list at least one law"));
+        }
+        let mut laws = Vec::new();
+        for (i, s) in raw.laws.iter().enumerate() {
+            let idx = i.to_string();
+            let law = parse_law(s).ok_or_else(|| {
+                bad(
+                    &["laws", &idx],
+                    format!("unknown law {s:?}; expected paper, newton, poisson or pgsN (N ≥ 1)"),
+                )
+            })?;
+            if laws.contains(&law) {
+                return Err(bad(&["laws", &idx], format!("law {s:?} is listed twice")));
+            }
+            laws.push(law);
+        }
+        let precision = match raw.precision.as_str() {
+            "f32" => Precision::F32,
+            "f64" => Precision::F64,
+            other => {
+                return Err(bad(
+                    &["precision"],
+                    format!("must be \"f32\" or \"f64\", got {other:?}"),
+                ))
+            }
+        };
+        let batch_size = raw.batch_size.unwrap_or(1 << 14);
+        if !(batch_size.is_power_of_two() && (256..=1 << 22).contains(&batch_size)) {
+            return Err(bad(
+                &["batch_size"],
+                format!("must be a power of two in 256..=4194304, got {batch_size}"),
+            ));
+        }
+        let body = Ellipsoid::new(raw.body.semi_axes, raw.body.mass).map_err(|e| match e {
+            crate::physics::BodyError::SemiAxis { .. } => {
+                bad(&["body", "semi_axes"], e.to_string())
+            }
+            crate::physics::BodyError::Mass(_) => bad(&["body", "mass"], e.to_string()),
+        })?;
+        if raw.planes.is_empty() {
+            return Err(bad(&["planes"], "a scene needs at least one plane"));
+        }
+        let mut planes: Vec<NamedPlane> = Vec::new();
+        for (i, p) in raw.planes.iter().enumerate() {
+            let idx = i.to_string();
+            let plane = Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
+                let f = match e {
+                    crate::physics::PlaneError::Normal(_) => "normal",
+                    crate::physics::PlaneError::Offset(_) => "offset",
+                    crate::physics::PlaneError::Restitution(_) => "restitution",
+                };
+                bad(&["planes", &idx, f], e.to_string())
+            })?;
+            if p.name.is_empty() || p.name.contains('+') {
+                return Err(bad(
+                    &["planes", &idx, "name"],
+                    format!("must be non-empty without '+', got {:?}", p.name),
+                ));
+            }
+            if planes.iter().any(|q| q.name == p.name) {
+                return Err(bad(
+                    &["planes", &idx, "name"],
+                    format!("plane name {:?} is used twice", p.name),
+                ));
+            }
+            planes.push(NamedPlane {
+                name: p.name.clone(),
+                plane,
+            });
+        }
+        let touching = Self::resolve_touching(&raw, &planes)?;
+        let placement = Self::solve_placement(&raw, &planes, &touching)?;
+        let length_scale = planes
+            .iter()
+            .map(|p| p.plane.offset().abs())
+            .fold(body.length_scale(), f64::max);
+        let tolerance = match raw.contact_tolerance {
+            None => DEFAULT_TOLERANCE_RELATIVE * length_scale,
+            Some(t) if t.is_finite() && t >= 0.0 => t,
+            Some(t) => {
+                return Err(bad(
+                    &["contact_tolerance"],
+                    format!("must be a finite number ≥ 0 (metres), got {t}"),
+                ))
+            }
+        };
+        let orientation = match raw.orientation {
+            RawOrientation::Uniform => OrientationDist::Uniform,
+            RawOrientation::Fixed { bryan_deg } => {
+                let d = finite3(&["orientation", "bryan_deg"], bryan_deg)?;
+                OrientationDist::Fixed(matrix_from_bryan(Bryan {
+                    psi: d.x.to_radians(),
+                    theta: d.y.to_radians(),
+                    phi: d.z.to_radians(),
+                }))
+            }
+            RawOrientation::BryanUniform {
+                psi_deg,
+                theta_deg,
+                phi_deg,
+            } => {
+                let mut low = DVec3::ZERO;
+                let mut high = DVec3::ZERO;
+                for (i, (name, r)) in [
+                    ("psi_deg", psi_deg),
+                    ("theta_deg", theta_deg),
+                    ("phi_deg", phi_deg),
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
+                        return Err(bad(
+                            &["orientation", name],
+                            format!("must be a finite [low, high] with low ≤ high, got {r:?}"),
+                        ));
+                    }
+                    low[i] = r[0].to_radians();
+                    high[i] = r[1].to_radians();
+                }
+                OrientationDist::BryanUniform { low, high }
+            }
+        };
+        let velocity = vector_dist("velocity", &raw.velocity)?;
+        let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
+        // Every default made explicit, for the manifest.
+        let mut raw = raw;
+        raw.contact_tolerance = Some(tolerance);
+        raw.batch_size = Some(batch_size);
+        Ok(Scene {
+            name: raw.name.clone(),
+            samples: raw.samples,
+            seed: raw.seed,
+            laws,
+            precision,
+            tolerance,
+            batch_size,
+            body,
+            planes,
+            touching,
+            placement,
+            orientation,
+            velocity,
+            angular_velocity,
+            raw,
+        })
+    }
+
+    fn resolve_touching(raw: &RawScene, planes: &[NamedPlane]) -> Result<Vec<usize>, Bad> {
+        let names = &raw.placement.touching;
+        if names.is_empty() || names.len() > 3 {
+            return Err(bad(
+                &["placement", "touching"],
+                format!("impossible placement: the body can touch 1 to 3 planes with independent normals, got {} ({names:?})", names.len()),
+            ));
+        }
+        let mut idx = Vec::new();
+        for (i, n) in names.iter().enumerate() {
+            let j = planes.iter().position(|p| &p.name == n).ok_or_else(|| {
+                bad(
+                    &["placement", "touching", &i.to_string()],
+                    format!("no plane is named {n:?}"),
+                )
+            })?;
+            if idx.contains(&j) {
+                return Err(bad(
+                    &["placement", "touching", &i.to_string()],
+                    format!("plane {n:?} is listed twice"),
+                ));
+            }
+            idx.push(j);
+        }
+        // Scene order, so that active-set names read in scene order.
+        idx.sort_unstable();
+        Ok(idx)
+    }
+
+    /// The minimal-norm centre making the touching planes touch:
+    /// `X0 = Nᵀ (N Nᵀ)⁻¹ (h − e)` with N the touching normals as rows.
+    fn solve_placement(
+        raw: &RawScene,
+        planes: &[NamedPlane],
+        touching: &[usize],
+    ) -> Result<Vec<DVec3>, Bad> {
+        let normals: Vec<DVec3> = touching.iter().map(|&i| planes[i].plane.normal()).collect();
+        let n = normals.len();
+        let mut gram = SymMatrix::zeros(n);
+        for i in 0..n {
+            for j in 0..n {
+                gram.set(i, j, normals[i].dot(normals[j]));
+            }
+        }
+        let min_eig = crate::physics::smallest_eigenvalue_scaled(&gram);
+        if !(min_eig > 1e-10) {
+            let names: Vec<&str> = touching.iter().map(|&i| planes[i].name.as_str()).collect();
+            return Err(bad(
+                &["placement", "touching"],
+                format!(
+                    "impossible placement: the normals of {names:?} are (nearly) dependent (smallest eigenvalue of their Gram matrix {min_eig:e}), so no centre touches them all at once; raw value {:?}",
+                    raw.placement.touching
+                ),
+            ));
+        }
+        // Columns of Nᵀ (N Nᵀ)⁻¹: solve the Gram system per unit vector.
+        let mut cols = Vec::new();
+        for i in 0..n {
+            let mut e = vec![0.0; n];
+            e[i] = 1.0;
+            let x = gram
+                .solve_spd(&e, 0.0)
+                .expect("Gram matrix checked regular");
+            cols.push((0..n).map(|j| normals[j] * x[j]).sum::<DVec3>());
+        }
+        Ok(cols)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn samples(&self) -> u64 {
+        self.samples
+    }
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+    pub fn laws(&self) -> &[Law] {
+        &self.laws
+    }
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+    pub fn batch_size(&self) -> u64 {
+        self.batch_size
+    }
+    pub fn body(&self) -> &Ellipsoid {
+        &self.body
+    }
+    pub fn planes(&self) -> &[NamedPlane] {
+        &self.planes
+    }
+    /// Indices of the planes the placement makes touch, in scene order.
+    pub fn touching(&self) -> &[usize] {
+        &self.touching
+    }
+    pub fn orientation(&self) -> OrientationDist {
+        self.orientation
+    }
+    pub fn velocity(&self) -> VectorDist {
+        self.velocity
+    }
+    pub fn angular_velocity(&self) -> VectorDist {
+        self.angular_velocity
+    }
+    /// The scene as parsed, with every default made explicit.
+    pub fn raw(&self) -> &RawScene {
+        &self.raw
+    }
+
+    /// Centre of the body for rotation `a` (body → world), placed so that the
+    /// touching planes touch.
+    pub fn centre(&self, a: DMat3) -> DVec3 {
+        self.touching
+            .iter()
+            .zip(&self.placement)
+            .map(|(&i, col)| {
+                let p = &self.planes[i].plane;
+                let u = a.transpose() * p.normal();
+                let h = (self.body.semi_axes() * u).length();
+                *col * (h - p.offset())
+            })
+            .sum()
+    }
+}
+
+/// Command-line overrides of scene fields, applied to the raw scene before
+/// validation so that they are validated like the file.
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    pub samples: Option<u64>,
+    pub seed: Option<u64>,
+    pub laws: Option<Vec<String>>,
+    pub precision: Option<String>,
+}
+
+impl Overrides {
+    pub fn apply(&self, raw: &mut RawScene) {
+        if let Some(s) = self.samples {
+            raw.samples = s;
+        }
+        if let Some(s) = self.seed {
+            raw.seed = s;
+        }
+        if let Some(l) = &self.laws {
+            raw.laws = l.clone();
+        }
+        if let Some(p) = &self.precision {
+            raw.precision = p.clone();
+        }
+    }
+}
+
+/// Loads a scene file and applies overrides.
+pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: file.clone(),
+        line: None,
+        field: "(file)".into(),
+        message: e.to_string(),
+    })?;
+    let mut raw = Scene::parse(&file, &text)?;
+    overrides.apply(&mut raw);
+    Scene::validate(&file, &text, raw)
+}
