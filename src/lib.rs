@@ -9,8 +9,16 @@
 
 pub mod case;
 pub mod config;
+pub mod engine;
 pub mod kernel;
 pub mod lanes;
+pub mod manifest;
+pub mod output;
 pub mod physics;
 pub mod sampler;
 pub mod scene;
+pub mod stats;
+pub mod summary;
+
+/// Version of the output schema (Parquet columns, JSON keys, manifest).
+pub const SCHEMA_VERSION: u32 = 1;

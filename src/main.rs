@@ -8,6 +8,14 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use impactmc::case::{parse_case, Case};
+use impactmc::engine::{run, RunOptions};
+use impactmc::manifest::{utc_string, Machine, Manifest};
+use impactmc::output::{prepare_dir, write_json, write_summary_parquet};
+use impactmc::scene::{load_scene, Overrides};
+use impactmc::summary::Summary;
+
+/// The scene `impactmc run` uses when given none.
+const DEFAULT_SCENE: &str = "configs/corner3.toml";
 
 #[derive(Parser)]
 #[command(
@@ -28,6 +36,46 @@ enum Command {
         /// Case file (.json or .toml), or - to read stdin.
         case: PathBuf,
     },
+    /// Run a scene's Monte Carlo study, print its summary and write the
+    /// results folder.
+    Run(RunArgs),
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Scene file (TOML). Default: configs/corner3.toml.
+    scene: Option<PathBuf>,
+    /// Number of samples (overrides the scene's `samples`).
+    #[arg(long)]
+    samples: Option<u64>,
+    /// Random seed (overrides the scene's `seed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Impact law: paper, newton, poisson or pgsN. Repeatable; replaces the
+    /// scene's `laws`.
+    #[arg(long = "law")]
+    laws: Vec<String>,
+    /// Kernel precision: f32 or f64 (overrides the scene's `precision`).
+    #[arg(long)]
+    precision: Option<String>,
+    /// Output folder (default: results/<scene name>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Overwrite an output folder that already holds a run.
+    #[arg(long)]
+    force: bool,
+    /// Summary format on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Format {
+    Text,
+    Json,
 }
 
 /// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
@@ -73,10 +121,77 @@ fn solve(path: &PathBuf) -> Result<(), Failure> {
     Ok(())
 }
 
+fn run_scene(args: &RunArgs) -> Result<(), Failure> {
+    let path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_SCENE));
+    let overrides = Overrides {
+        samples: args.samples,
+        seed: args.seed,
+        laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
+        precision: args.precision.clone(),
+    };
+    let scene = load_scene(&path, &overrides).map_err(|e| bad_input(e.to_string()))?;
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(scene.name()));
+    prepare_dir(&dir, args.force).map_err(|e| bad_input(e.to_string()))?;
+    let started = std::time::SystemTime::now();
+    let result = run(
+        &scene,
+        &RunOptions {
+            threads: args.threads,
+            progress: true,
+        },
+    )
+    .map_err(|e| Failure {
+        code: 1,
+        message: format!("thread pool: {e}"),
+    })?;
+    let finished = std::time::SystemTime::now();
+    let summary = Summary::new(&scene, &result);
+    match args.format {
+        Format::Text => print!("{}", summary.to_text()),
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("summary serialises")
+        ),
+    }
+    let fail = |e: impactmc::output::OutputError| Failure {
+        code: 1,
+        message: e.to_string(),
+    };
+    write_summary_parquet(&dir, &summary).map_err(fail)?;
+    write_json(&dir, "summary.json", &summary).map_err(fail)?;
+    let manifest = Manifest {
+        schema_version: impactmc::SCHEMA_VERSION,
+        impactmc_version: env!("CARGO_PKG_VERSION"),
+        git_commit: env!("IMPACTMC_GIT_COMMIT"),
+        scene: scene.raw().clone(),
+        seed: scene.seed(),
+        samples: scene.samples(),
+        started_utc: utc_string(started),
+        finished_utc: utc_string(finished),
+        wall_seconds: result.wall_seconds,
+        cpu_seconds: result.cpu_seconds,
+        threads: result.threads,
+        machine: Machine::current(),
+        files: vec!["summary.parquet".into(), "summary.json".into()],
+    };
+    write_json(&dir, "manifest.json", &manifest).map_err(fail)?;
+    if matches!(args.format, Format::Text) {
+        println!("\nwrote {}", dir.display());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Solve { case } => solve(case),
+        Command::Run(args) => run_scene(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

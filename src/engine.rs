@@ -1,0 +1,429 @@
+//! The Monte Carlo run: batches of samples in parallel (rayon), each batch a
+//! sequence of SoA blocks through sampler → kernel → accumulators; batch
+//! results are merged in batch order, so the answer does not depend on the
+//! thread count or the scheduling.
+
+use std::time::Instant;
+
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+use crate::kernel::{
+    check_extra_planes, geometry, impulses, post, recompute, Consts, Geometry, LawOut,
+    ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTED, UNSOLVED,
+};
+use crate::lanes::Real;
+use crate::physics::Law;
+use crate::sampler::{Inputs, Sampler, BLOCK};
+use crate::scene::{Precision, Scene};
+use crate::stats::{Moments, Stat};
+
+/// Statistics of the samples in one active-contact set.
+#[derive(Debug, Clone, Default)]
+pub struct GroupAcc {
+    pub samples: u64,
+    pub impacts: u64,
+    pub energy_ratio: Moments,
+    pub omega_after_norm: Moments,
+    pub velocity_after_norm: Moments,
+}
+
+/// Everything accumulated for one law.
+#[derive(Debug, Clone)]
+pub struct LawAcc {
+    pub samples: u64,
+    pub impacts: u64,
+    pub energy_gain: u64,
+    pub degenerate: u64,
+    pub jammed: u64,
+    pub unsolved: u64,
+    pub recomputed: u64,
+    pub penetrating: u64,
+    /// Counts per active set (bit i: touching plane i took λ > 0), all samples.
+    pub active_sets: Vec<u64>,
+    /// Over impacting samples.
+    pub energy_ratio: Stat,
+    pub omega_after_norm: Stat,
+    pub velocity_after_norm: Stat,
+    /// Per touching plane, over impacting samples (zeros included).
+    pub impulse: Vec<Stat>,
+    /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached.
+    pub rebound: Vec<Stat>,
+    /// Per active set: moments of the three post-impact statistics.
+    pub groups: Vec<GroupAcc>,
+}
+
+/// Paired differences `law − laws[0]` on the same impacting samples.
+#[derive(Debug, Clone, Default)]
+pub struct PairAcc {
+    pub energy_ratio: Moments,
+    pub omega_after_norm: Moments,
+    pub velocity_after_norm: Moments,
+}
+
+#[derive(Debug, Clone)]
+pub struct RunAcc {
+    pub laws: Vec<LawAcc>,
+    /// `pairs[i]` is laws[i + 1] − laws[0].
+    pub pairs: Vec<PairAcc>,
+}
+
+impl LawAcc {
+    fn new(contacts: usize) -> Self {
+        Self {
+            samples: 0,
+            impacts: 0,
+            energy_gain: 0,
+            degenerate: 0,
+            jammed: 0,
+            unsolved: 0,
+            recomputed: 0,
+            penetrating: 0,
+            active_sets: vec![0; 1 << contacts],
+            energy_ratio: Stat::default(),
+            omega_after_norm: Stat::default(),
+            velocity_after_norm: Stat::default(),
+            impulse: vec![Stat::default(); contacts],
+            rebound: vec![Stat::default(); contacts],
+            groups: vec![GroupAcc::default(); 1 << contacts],
+        }
+    }
+
+    fn flush(&mut self) {
+        for s in [
+            &mut self.energy_ratio,
+            &mut self.omega_after_norm,
+            &mut self.velocity_after_norm,
+        ] {
+            s.flush();
+        }
+        for s in self.impulse.iter_mut().chain(self.rebound.iter_mut()) {
+            s.flush();
+        }
+        for g in &mut self.groups {
+            g.energy_ratio.flush();
+            g.omega_after_norm.flush();
+            g.velocity_after_norm.flush();
+        }
+    }
+
+    fn merge(&mut self, o: &LawAcc) {
+        self.samples += o.samples;
+        self.impacts += o.impacts;
+        self.energy_gain += o.energy_gain;
+        self.degenerate += o.degenerate;
+        self.jammed += o.jammed;
+        self.unsolved += o.unsolved;
+        self.recomputed += o.recomputed;
+        self.penetrating += o.penetrating;
+        for (a, b) in self.active_sets.iter_mut().zip(&o.active_sets) {
+            *a += b;
+        }
+        self.energy_ratio.merge(&o.energy_ratio);
+        self.omega_after_norm.merge(&o.omega_after_norm);
+        self.velocity_after_norm.merge(&o.velocity_after_norm);
+        for (a, b) in self.impulse.iter_mut().zip(&o.impulse) {
+            a.merge(b);
+        }
+        for (a, b) in self.rebound.iter_mut().zip(&o.rebound) {
+            a.merge(b);
+        }
+        for (a, b) in self.groups.iter_mut().zip(&o.groups) {
+            a.samples += b.samples;
+            a.impacts += b.impacts;
+            a.energy_ratio.merge(&b.energy_ratio);
+            a.omega_after_norm.merge(&b.omega_after_norm);
+            a.velocity_after_norm.merge(&b.velocity_after_norm);
+        }
+    }
+}
+
+impl RunAcc {
+    pub fn new(laws: usize, contacts: usize) -> Self {
+        Self {
+            laws: (0..laws).map(|_| LawAcc::new(contacts)).collect(),
+            pairs: vec![PairAcc::default(); laws.saturating_sub(1)],
+        }
+    }
+
+    pub fn flush(&mut self) {
+        for l in &mut self.laws {
+            l.flush();
+        }
+        for p in &mut self.pairs {
+            p.energy_ratio.flush();
+            p.omega_after_norm.flush();
+            p.velocity_after_norm.flush();
+        }
+    }
+
+    /// Merges `o` after `self`; merging in a fixed order gives bit-identical
+    /// results.
+    pub fn merge(&mut self, o: &RunAcc) {
+        for (a, b) in self.laws.iter_mut().zip(&o.laws) {
+            a.merge(b);
+        }
+        for (a, b) in self.pairs.iter_mut().zip(&o.pairs) {
+            a.energy_ratio.merge(&b.energy_ratio);
+            a.omega_after_norm.merge(&b.omega_after_norm);
+            a.velocity_after_norm.merge(&b.velocity_after_norm);
+        }
+    }
+}
+
+/// Scratch space of one worker: allocated once per batch, reused by blocks.
+struct Work<T, const N: usize> {
+    inputs: Box<Inputs<T>>,
+    geo: Box<Geometry<T, N>>,
+    outs: Vec<Box<LawOut<T, N>>>,
+    /// Post-impact (energy ratio, |ω⁺|, |v⁺|) of laws[0], for paired
+    /// differences; NaN where the sample did not impact.
+    first: Vec<[f64; 3]>,
+}
+
+impl<T: Real, const N: usize> Work<T, N> {
+    fn new(laws: usize) -> Self {
+        Self {
+            inputs: Inputs::new(),
+            geo: Geometry::new(),
+            outs: (0..laws).map(|_| LawOut::new()).collect(),
+            first: vec![[f64::NAN; 3]; BLOCK],
+        }
+    }
+}
+
+/// The vectorised part of a block: draws, geometry, impulses and post
+/// quantities for every law. Compiled for AVX-512, AVX2+FMA and the
+/// baseline; the best the CPU has is chosen at run time.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+))]
+fn block_lanes<T: Real, const N: usize>(
+    consts: &Consts<T, N>,
+    sampler: &Sampler,
+    laws: &[Law],
+    first: u64,
+    inputs: &mut Inputs<T>,
+    geo: &mut Geometry<T, N>,
+    outs: &mut [Box<LawOut<T, N>>],
+) {
+    sampler.fill(first, inputs);
+    geometry(consts, inputs, geo);
+    for (law, out) in laws.iter().zip(outs.iter_mut()) {
+        impulses(consts, *law, geo, out);
+        post(consts, inputs, geo, out);
+    }
+}
+
+/// One block: the lane passes, then the reference for flagged lanes, then the
+/// accumulators (scalar).
+fn run_block<T: Real, const N: usize>(
+    scene: &Scene,
+    consts: &Consts<T, N>,
+    sampler: &Sampler,
+    first: u64,
+    count: usize,
+    work: &mut Work<T, N>,
+    acc: &mut RunAcc,
+) {
+    let laws = scene.laws();
+    block_lanes(
+        consts,
+        sampler,
+        laws,
+        first,
+        &mut work.inputs,
+        &mut work.geo,
+        &mut work.outs,
+    );
+    check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    let approach_mask = (1u32 << N) - 1;
+    for (li, law) in laws.iter().enumerate() {
+        let out = &mut work.outs[li];
+        // Extra-plane checks landed in geo.status after the lane passes.
+        for s in 0..count {
+            out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+        }
+        recompute(scene, *law, &work.inputs, out, count);
+        let la = &mut acc.laws[li];
+        for s in 0..count {
+            let st = out.status[s];
+            la.samples += 1;
+            la.energy_gain += (st & ENERGY_GAIN != 0) as u64;
+            la.degenerate += (st & DEGENERATE != 0) as u64;
+            la.jammed += (st & JAMMED != 0) as u64;
+            la.unsolved += (st & UNSOLVED != 0) as u64;
+            la.recomputed += (st & RECOMPUTED != 0) as u64;
+            if st & PENETRATING != 0 {
+                la.penetrating += 1;
+                if li == 0 {
+                    work.first[s] = [f64::NAN; 3];
+                }
+                continue;
+            }
+            let active = ((st >> ACTIVE_SHIFT) & approach_mask) as usize;
+            la.active_sets[active] += 1;
+            let group = &mut la.groups[active];
+            group.samples += 1;
+            let approaching = st & approach_mask;
+            if approaching == 0 {
+                if li == 0 {
+                    work.first[s] = [f64::NAN; 3];
+                }
+                continue;
+            }
+            la.impacts += 1;
+            group.impacts += 1;
+            let t0 = work.geo.t_before[s].to_f64();
+            let ratio = out.t_after[s].to_f64() / t0;
+            let norm = |x: &[[T; BLOCK]; 3]| {
+                let (a, b, c) = (x[0][s].to_f64(), x[1][s].to_f64(), x[2][s].to_f64());
+                (a * a + b * b + c * c).sqrt()
+            };
+            let wn = norm(&out.w_after);
+            let vn = norm(&out.v_after);
+            la.energy_ratio.push(ratio);
+            la.omega_after_norm.push(wn);
+            la.velocity_after_norm.push(vn);
+            group.energy_ratio.push(ratio);
+            group.omega_after_norm.push(wn);
+            group.velocity_after_norm.push(vn);
+            for i in 0..N {
+                la.impulse[i].push(out.lambda[i][s].to_f64());
+                if approaching & (1 << i) != 0 {
+                    let before = work.geo.vn[i][s].to_f64();
+                    la.rebound[i].push(-out.vn_after[i][s].to_f64() / before);
+                }
+            }
+            if li == 0 {
+                work.first[s] = [ratio, wn, vn];
+            } else {
+                let f = work.first[s];
+                if !f[0].is_nan() {
+                    let p = &mut acc.pairs[li - 1];
+                    p.energy_ratio.push(ratio - f[0]);
+                    p.omega_after_norm.push(wn - f[1]);
+                    p.velocity_after_norm.push(vn - f[2]);
+                }
+            }
+        }
+    }
+}
+
+/// Result of a run.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    pub acc: RunAcc,
+    pub wall_seconds: f64,
+    pub cpu_seconds: Option<f64>,
+    pub threads: usize,
+}
+
+/// Options of a run that do not change its results.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Worker threads; 0 means all cores.
+    pub threads: usize,
+    /// Show a progress bar on a terminal.
+    pub progress: bool,
+}
+
+/// Batches merged per step: bounds memory whatever the sample count.
+const BATCHES_IN_FLIGHT: u64 = 64;
+
+fn run_typed<T: Real, const N: usize>(scene: &Scene, bar: &indicatif::ProgressBar) -> RunAcc {
+    let consts = Consts::<T, N>::new(scene);
+    let sampler = Sampler::new(scene);
+    let laws = scene.laws().len();
+    let batch = scene.batch_size();
+    let total = scene.samples();
+    let batches = total.div_ceil(batch);
+    let mut acc = RunAcc::new(laws, N);
+    let mut start = 0;
+    while start < batches {
+        let end = (start + BATCHES_IN_FLIGHT).min(batches);
+        let parts: Vec<RunAcc> = (start..end)
+            .into_par_iter()
+            .map_init(
+                || Work::<T, N>::new(laws),
+                |work, b| {
+                    let mut part = RunAcc::new(laws, N);
+                    let lo = b * batch;
+                    let hi = (lo + batch).min(total);
+                    let mut first = lo;
+                    while first < hi {
+                        let count = ((hi - first) as usize).min(BLOCK);
+                        run_block(scene, &consts, &sampler, first, count, work, &mut part);
+                        first += BLOCK as u64;
+                    }
+                    part.flush();
+                    bar.inc(hi - lo);
+                    part
+                },
+            )
+            .collect();
+        for p in &parts {
+            acc.merge(p);
+        }
+        start = end;
+    }
+    acc
+}
+
+fn cpu_seconds() -> Option<f64> {
+    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// Runs a scene. Errors only if the thread pool cannot be built.
+pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunResult, rayon::ThreadPoolBuildError> {
+    let threads = if opts.threads == 0 {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    } else {
+        opts.threads
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let bar = if opts.progress && scene.samples() >= 20_000_000 {
+        let b = indicatif::ProgressBar::new(scene.samples());
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}",
+            )
+            .expect("static template"),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let cpu0 = cpu_seconds();
+    let t0 = Instant::now();
+    let acc = pool.install(|| match (scene.precision(), scene.touching().len()) {
+        (Precision::F32, 1) => run_typed::<f32, 1>(scene, &bar),
+        (Precision::F32, 2) => run_typed::<f32, 2>(scene, &bar),
+        (Precision::F32, _) => run_typed::<f32, 3>(scene, &bar),
+        (Precision::F64, 1) => run_typed::<f64, 1>(scene, &bar),
+        (Precision::F64, 2) => run_typed::<f64, 2>(scene, &bar),
+        (Precision::F64, _) => run_typed::<f64, 3>(scene, &bar),
+    });
+    let wall_seconds = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let cpu_seconds = match (cpu0, cpu_seconds()) {
+        (Some(a), Some(b)) => Some(b - a),
+        _ => None,
+    };
+    Ok(RunResult {
+        acc,
+        wall_seconds,
+        cpu_seconds,
+        threads,
+    })
+}

@@ -1,0 +1,330 @@
+//! Mergeable accumulators: moments (shifted sums per batch, merged with
+//! Chan's formula in a fixed order, so results are bit-identical for any
+//! thread count), extrema, and log-linear histograms for quantiles.
+
+/// Sub-bins per octave of [`LogHistogram`] (2^6 = 64: bins 1.1 % wide).
+pub const SUB_BITS: u32 = 6;
+/// Octaves covered: |x| in [2^MIN_EXP, 2^MAX_EXP); outside, values land in
+/// the end bins (min and max stay exact).
+pub const MIN_EXP: i32 = -32;
+pub const MAX_EXP: i32 = 32;
+const SUB: usize = 1 << SUB_BITS;
+const BINS: usize = (MAX_EXP - MIN_EXP) as usize * SUB;
+
+/// Count, mean, variance, min and max.
+///
+/// `push` adds to per-batch sums shifted by the batch's first value; `flush`
+/// folds them into the merged (n, mean, M2) with Chan's pairwise formula.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Moments {
+    n: u64,
+    mean: f64,
+    m2: f64,
+    min: f64,
+    max: f64,
+    pending_n: u64,
+    shift: f64,
+    s1: f64,
+    s2: f64,
+}
+
+impl Default for Moments {
+    fn default() -> Self {
+        Self {
+            n: 0,
+            mean: 0.0,
+            m2: 0.0,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            pending_n: 0,
+            shift: 0.0,
+            s1: 0.0,
+            s2: 0.0,
+        }
+    }
+}
+
+impl Moments {
+    #[inline]
+    pub fn push(&mut self, x: f64) {
+        if self.pending_n == 0 {
+            self.shift = x;
+        }
+        self.pending_n += 1;
+        let d = x - self.shift;
+        self.s1 += d;
+        self.s2 += d * d;
+        self.min = self.min.min(x);
+        self.max = self.max.max(x);
+    }
+
+    /// Folds the pending batch sums into the merged moments.
+    pub fn flush(&mut self) {
+        if self.pending_n == 0 {
+            return;
+        }
+        let nb = self.pending_n as f64;
+        let mean_b = self.shift + self.s1 / nb;
+        let m2_b = (self.s2 - self.s1 * self.s1 / nb).max(0.0);
+        self.combine(self.pending_n, mean_b, m2_b);
+        self.pending_n = 0;
+        self.s1 = 0.0;
+        self.s2 = 0.0;
+    }
+
+    fn combine(&mut self, nb: u64, mean_b: f64, m2_b: f64) {
+        if nb == 0 {
+            return;
+        }
+        if self.n == 0 {
+            self.n = nb;
+            self.mean = mean_b;
+            self.m2 = m2_b;
+            return;
+        }
+        let na = self.n as f64;
+        let nbf = nb as f64;
+        let n = na + nbf;
+        let delta = mean_b - self.mean;
+        self.mean += delta * nbf / n;
+        self.m2 += m2_b + delta * delta * na * nbf / n;
+        self.n += nb;
+    }
+
+    /// Merges `other` (after both are flushed) into `self`.
+    pub fn merge(&mut self, other: &Moments) {
+        let mut o = other.clone();
+        o.flush();
+        self.flush();
+        self.combine(o.n, o.mean, o.m2);
+        self.min = self.min.min(o.min);
+        self.max = self.max.max(o.max);
+    }
+
+    pub fn count(&self) -> u64 {
+        self.n + self.pending_n
+    }
+    pub fn mean(&self) -> f64 {
+        self.merged().1
+    }
+    /// Sample standard deviation (n − 1 in the denominator).
+    pub fn sd(&self) -> f64 {
+        let (n, _, m2) = self.merged();
+        if n < 2 {
+            0.0
+        } else {
+            (m2 / (n - 1) as f64).sqrt()
+        }
+    }
+    /// Half-width of the normal-approximation 95 % confidence interval of
+    /// the mean, `1.96 sd / √n`.
+    pub fn ci95(&self) -> f64 {
+        let n = self.count();
+        if n < 2 {
+            f64::NAN
+        } else {
+            1.96 * self.sd() / (n as f64).sqrt()
+        }
+    }
+    pub fn min(&self) -> f64 {
+        self.min
+    }
+    pub fn max(&self) -> f64 {
+        self.max
+    }
+
+    fn merged(&self) -> (u64, f64, f64) {
+        let mut c = self.clone();
+        c.flush();
+        (c.n, c.mean, c.m2)
+    }
+}
+
+/// Log-linear histogram of signed values: 64 bins per octave over
+/// |x| ∈ [2^-32, 2^32), plus an exact-zero count. The negative half is
+/// allocated on first use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogHistogram {
+    pos: Vec<u64>,
+    neg: Vec<u64>,
+    zero: u64,
+}
+
+impl Default for LogHistogram {
+    fn default() -> Self {
+        Self {
+            pos: vec![0; BINS],
+            neg: Vec::new(),
+            zero: 0,
+        }
+    }
+}
+
+#[inline]
+fn bin_of(mag: f64) -> usize {
+    let bits = mag.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let sub = ((bits >> (52 - SUB_BITS)) & (SUB as u64 - 1)) as i32;
+    ((exp - MIN_EXP) * SUB as i32 + sub).clamp(0, BINS as i32 - 1) as usize
+}
+
+/// `[lo, hi)` of bin `b` for magnitudes.
+pub fn bin_edges(b: usize) -> (f64, f64) {
+    let exp = (b / SUB) as i32 + MIN_EXP;
+    let sub = (b % SUB) as f64;
+    let base = 2f64.powi(exp);
+    (
+        base * (1.0 + sub / SUB as f64),
+        base * (1.0 + (sub + 1.0) / SUB as f64),
+    )
+}
+
+impl LogHistogram {
+    #[inline]
+    pub fn push(&mut self, x: f64) {
+        if x > 0.0 {
+            self.pos[bin_of(x)] += 1;
+        } else if x < 0.0 {
+            if self.neg.is_empty() {
+                self.neg = vec![0; BINS];
+            }
+            self.neg[bin_of(-x)] += 1;
+        } else {
+            self.zero += 1;
+        }
+    }
+
+    pub fn merge(&mut self, o: &LogHistogram) {
+        for (a, b) in self.pos.iter_mut().zip(&o.pos) {
+            *a += b;
+        }
+        if !o.neg.is_empty() {
+            if self.neg.is_empty() {
+                self.neg = vec![0; BINS];
+            }
+            for (a, b) in self.neg.iter_mut().zip(&o.neg) {
+                *a += b;
+            }
+        }
+        self.zero += o.zero;
+    }
+
+    pub fn total(&self) -> u64 {
+        self.zero + self.pos.iter().sum::<u64>() + self.neg.iter().sum::<u64>()
+    }
+
+    /// Non-empty bins in ascending value order as `(lo, hi, count)`; the
+    /// zero count is the bin `(0, 0)`.
+    pub fn bins(&self) -> Vec<(f64, f64, u64)> {
+        let mut out = Vec::new();
+        for b in (0..self.neg.len()).rev() {
+            if self.neg[b] > 0 {
+                let (lo, hi) = bin_edges(b);
+                out.push((-hi, -lo, self.neg[b]));
+            }
+        }
+        if self.zero > 0 {
+            out.push((0.0, 0.0, self.zero));
+        }
+        for b in 0..BINS {
+            if self.pos[b] > 0 {
+                let (lo, hi) = bin_edges(b);
+                out.push((lo, hi, self.pos[b]));
+            }
+        }
+        out
+    }
+
+    /// The p-quantile, linearly interpolated within its bin and clamped to
+    /// the exact [min, max]. Relative error at most one bin width (1.1 %).
+    pub fn quantile(&self, p: f64, min: f64, max: f64) -> f64 {
+        let n = self.total();
+        if n == 0 {
+            return f64::NAN;
+        }
+        let target = p.clamp(0.0, 1.0) * n as f64;
+        let mut below = 0.0;
+        for (lo, hi, c) in self.bins() {
+            let c = c as f64;
+            if below + c >= target {
+                let f = if c > 0.0 { (target - below) / c } else { 0.0 };
+                return (lo + f * (hi - lo)).clamp(min, max);
+            }
+            below += c;
+        }
+        max
+    }
+}
+
+/// Moments with a histogram: everything the summary reports for a statistic.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stat {
+    pub moments: Moments,
+    pub hist: LogHistogram,
+}
+
+impl Stat {
+    #[inline]
+    pub fn push(&mut self, x: f64) {
+        self.moments.push(x);
+        self.hist.push(x);
+    }
+    pub fn flush(&mut self) {
+        self.moments.flush();
+    }
+    pub fn merge(&mut self, o: &Stat) {
+        self.moments.merge(&o.moments);
+        self.hist.merge(&o.hist);
+    }
+    pub fn quantile(&self, p: f64) -> f64 {
+        self.hist
+            .quantile(p, self.moments.min(), self.moments.max())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn moments_match_two_pass_and_merge_in_any_batching() {
+        let xs: Vec<f64> = (0..10_000)
+            .map(|i| 1e6 + ((i * 7919) % 1000) as f64 * 0.001)
+            .collect();
+        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() - 1) as f64;
+        let mut whole = Moments::default();
+        for chunk in xs.chunks(777) {
+            let mut part = Moments::default();
+            for &x in chunk {
+                part.push(x);
+            }
+            part.flush();
+            whole.merge(&part);
+        }
+        assert!((whole.mean() - mean).abs() < 1e-9);
+        assert!((whole.sd() - var.sqrt()).abs() / var.sqrt() < 1e-9);
+        assert_eq!(whole.count(), 10_000);
+        assert_eq!(
+            whole.min(),
+            xs.iter().cloned().fold(f64::INFINITY, f64::min)
+        );
+    }
+
+    #[test]
+    fn quantiles_within_one_bin() {
+        let mut h = Stat::default();
+        for i in 1..=100_000 {
+            h.push(i as f64 / 1000.0); // uniform on (0, 100]
+        }
+        for (p, want) in [(0.01, 1.0), (0.5, 50.0), (0.99, 99.0)] {
+            let got = h.quantile(p);
+            assert!((got - want).abs() / want < 0.011, "p{p}: {got} vs {want}");
+        }
+        let mut s = Stat::default();
+        for x in [-3.0, -1.0, 0.0, 2.0] {
+            s.push(x);
+        }
+        assert!(s.quantile(0.1) < -1.0 && s.quantile(0.9) > 0.0);
+    }
+}

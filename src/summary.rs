@@ -1,0 +1,359 @@
+//! The run summary: what `impactmc run` prints (text or JSON) and what the
+//! Parquet summary table holds. Built from the merged accumulators only.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Map;
+
+use crate::engine::{LawAcc, RunResult};
+use crate::scene::Scene;
+use crate::stats::{Moments, Stat};
+
+/// Mean, spread and quantiles of one statistic. Quantiles are absent where
+/// only moments are kept (groups other than "all", paired differences).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct StatSummary {
+    pub n: u64,
+    pub mean: f64,
+    pub ci95: f64,
+    pub sd: f64,
+    pub min: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p01: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p99: Option<f64>,
+    pub max: f64,
+}
+
+impl StatSummary {
+    fn from_moments(m: &Moments) -> Self {
+        let n = m.count();
+        let nan_if_empty = |x: f64| if n == 0 { f64::NAN } else { x };
+        Self {
+            n,
+            mean: nan_if_empty(m.mean()),
+            ci95: m.ci95(),
+            sd: nan_if_empty(m.sd()),
+            min: nan_if_empty(m.min()),
+            p01: None,
+            median: None,
+            p99: None,
+            max: nan_if_empty(m.max()),
+        }
+    }
+
+    fn from_stat(s: &Stat) -> Self {
+        let mut out = Self::from_moments(&s.moments);
+        if out.n > 0 {
+            out.p01 = Some(s.quantile(0.01));
+            out.median = Some(s.quantile(0.5));
+            out.p99 = Some(s.quantile(0.99));
+        }
+        out
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct GroupSummary {
+    pub samples: u64,
+    pub impacts: u64,
+    pub stats: Map<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub fractions: Map<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub fractions_ci95: Map<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub active_sets: Map<String, serde_json::Value>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct LawSummary {
+    pub groups: Map<String, serde_json::Value>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Throughput {
+    pub samples_per_second: f64,
+    pub wall_seconds: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cpu_seconds: Option<f64>,
+}
+
+/// The public JSON of `impactmc run --format json`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Summary {
+    pub scene: String,
+    pub samples: u64,
+    pub seed: u64,
+    pub precision: String,
+    pub threads: usize,
+    pub throughput: Throughput,
+    /// The touching planes, in scene order: the names active sets use.
+    pub contacts: Vec<String>,
+    pub laws: Map<String, serde_json::Value>,
+    /// `LAW-FIRST`: paired differences against the first law, same samples.
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub paired: Map<String, serde_json::Value>,
+}
+
+/// `+`-joined names of the planes in an active-set mask, in scene order.
+pub fn active_set_name(mask: usize, names: &[String]) -> String {
+    names
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| mask & (1 << i) != 0)
+        .map(|(_, n)| n.as_str())
+        .collect::<Vec<_>>()
+        .join("+")
+}
+
+fn json<T: Serialize>(x: &T) -> serde_json::Value {
+    serde_json::to_value(x).expect("summary values serialise")
+}
+
+/// Proportion and its 95 % half-width (normal approximation).
+fn proportion(k: u64, n: u64) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let p = k as f64 / n as f64;
+    (p, 1.96 * (p * (1.0 - p) / n as f64).sqrt())
+}
+
+fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
+    let mut stats = Map::new();
+    stats.insert(
+        "energy_ratio".into(),
+        json(&StatSummary::from_stat(&acc.energy_ratio)),
+    );
+    stats.insert(
+        "omega_after_norm".into(),
+        json(&StatSummary::from_stat(&acc.omega_after_norm)),
+    );
+    stats.insert(
+        "velocity_after_norm".into(),
+        json(&StatSummary::from_stat(&acc.velocity_after_norm)),
+    );
+    for (i, name) in contacts.iter().enumerate() {
+        stats.insert(
+            format!("impulse_{name}"),
+            json(&StatSummary::from_stat(&acc.impulse[i])),
+        );
+        stats.insert(
+            format!("rebound_{name}"),
+            json(&StatSummary::from_stat(&acc.rebound[i])),
+        );
+    }
+    let mut fractions = Map::new();
+    let mut cis = Map::new();
+    for (name, k) in [
+        ("impacting", acc.impacts),
+        ("energy_gain", acc.energy_gain),
+        ("degenerate", acc.degenerate),
+        ("jammed", acc.jammed),
+        ("unsolved", acc.unsolved),
+        ("recomputed_f64", acc.recomputed),
+        ("penetrating", acc.penetrating),
+    ] {
+        let (p, ci) = proportion(k, acc.samples);
+        fractions.insert(name.into(), json(&p));
+        cis.insert(name.into(), json(&ci));
+    }
+    let mut active = Map::new();
+    for (mask, &k) in acc.active_sets.iter().enumerate() {
+        active.insert(
+            active_set_name(mask, contacts),
+            json(&proportion(k, acc.samples).0),
+        );
+    }
+    let mut groups = Map::new();
+    groups.insert(
+        "all".into(),
+        json(&GroupSummary {
+            samples: acc.samples,
+            impacts: acc.impacts,
+            stats,
+            fractions,
+            fractions_ci95: cis,
+            active_sets: active,
+        }),
+    );
+    for (mask, g) in acc.groups.iter().enumerate() {
+        if g.samples == 0 {
+            continue;
+        }
+        let mut s = Map::new();
+        s.insert(
+            "energy_ratio".into(),
+            json(&StatSummary::from_moments(&g.energy_ratio)),
+        );
+        s.insert(
+            "omega_after_norm".into(),
+            json(&StatSummary::from_moments(&g.omega_after_norm)),
+        );
+        s.insert(
+            "velocity_after_norm".into(),
+            json(&StatSummary::from_moments(&g.velocity_after_norm)),
+        );
+        let name = active_set_name(mask, contacts);
+        let key = if name.is_empty() {
+            "(none)".to_string()
+        } else {
+            name
+        };
+        groups.insert(
+            key,
+            json(&GroupSummary {
+                samples: g.samples,
+                impacts: g.impacts,
+                stats: s,
+                fractions: Map::new(),
+                fractions_ci95: Map::new(),
+                active_sets: Map::new(),
+            }),
+        );
+    }
+    LawSummary { groups }
+}
+
+impl Summary {
+    pub fn new(scene: &Scene, result: &RunResult) -> Self {
+        let contacts: Vec<String> = scene
+            .touching()
+            .iter()
+            .map(|&i| scene.planes()[i].name.clone())
+            .collect();
+        let mut laws = Map::new();
+        for (law, acc) in scene.laws().iter().zip(&result.acc.laws) {
+            laws.insert(law.name(), json(&law_summary(acc, &contacts)));
+        }
+        let mut paired = Map::new();
+        let first = scene.laws()[0].name();
+        for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
+            let mut m = Map::new();
+            m.insert(
+                "energy_ratio".into(),
+                json(&StatSummary::from_moments(&p.energy_ratio)),
+            );
+            m.insert(
+                "omega_after_norm".into(),
+                json(&StatSummary::from_moments(&p.omega_after_norm)),
+            );
+            m.insert(
+                "velocity_after_norm".into(),
+                json(&StatSummary::from_moments(&p.velocity_after_norm)),
+            );
+            paired.insert(
+                format!("{}-{first}", law.name()),
+                serde_json::Value::Object(m),
+            );
+        }
+        Summary {
+            scene: scene.name().to_string(),
+            samples: scene.samples(),
+            seed: scene.seed(),
+            precision: scene.precision().name().to_string(),
+            threads: result.threads,
+            throughput: Throughput {
+                samples_per_second: scene.samples() as f64 / result.wall_seconds,
+                wall_seconds: result.wall_seconds,
+                cpu_seconds: result.cpu_seconds,
+            },
+            contacts,
+            laws,
+            paired,
+        }
+    }
+
+    /// `summary.laws[law].groups.all`, typed.
+    pub fn all_group(&self, law: &str) -> Option<GroupSummary> {
+        let v = self.laws.get(law)?.get("groups")?.get("all")?;
+        serde_json::from_value(v.clone()).ok()
+    }
+
+    /// The human-readable table printed by `impactmc run`.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "scene {}: {} samples, seed {}, {} kernel, {} threads, {:.3} s wall ({:.3e} samples/s)",
+            self.scene,
+            self.samples,
+            self.seed,
+            self.precision,
+            self.threads,
+            self.throughput.wall_seconds,
+            self.throughput.samples_per_second
+        );
+        let _ = writeln!(s, "contacts: {}", self.contacts.join(", "));
+        for law in self.laws.keys() {
+            let Some(all) = self.all_group(law) else {
+                continue;
+            };
+            let frac = |k: &str| {
+                all.fractions
+                    .get(k)
+                    .and_then(|v| v.as_f64())
+                    .unwrap_or(f64::NAN)
+            };
+            let _ = writeln!(
+                s,
+                "\n[{law}] impacts {} of {} ({:.4}); energy_gain {:.2e}, degenerate {:.2e}, jammed {:.2e}, recomputed_f64 {:.2e}, penetrating {:.2e}",
+                all.impacts, all.samples, frac("impacting"), frac("energy_gain"), frac("degenerate"), frac("jammed"),
+                frac("recomputed_f64"), frac("penetrating")
+            );
+            let _ = writeln!(
+                s,
+                "  {:<26} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10}",
+                "statistic", "mean", "±95%", "sd", "p01", "median", "p99"
+            );
+            for (name, v) in &all.stats {
+                let Ok(st) = serde_json::from_value::<StatSummary>(v.clone()) else {
+                    continue;
+                };
+                let q = |x: Option<f64>| {
+                    x.map(|x| format!("{x:>10.4}"))
+                        .unwrap_or_else(|| format!("{:>10}", "-"))
+                };
+                let _ = writeln!(
+                    s,
+                    "  {:<26} {:>12.6} {:>10.2e} {:>10.4} {} {} {}",
+                    name,
+                    st.mean,
+                    st.ci95,
+                    st.sd,
+                    q(st.p01),
+                    q(st.median),
+                    q(st.p99)
+                );
+            }
+            let sets: Vec<String> = all
+                .active_sets
+                .iter()
+                .map(|(k, v)| {
+                    format!(
+                        "{}={:.4}",
+                        if k.is_empty() { "(none)" } else { k },
+                        v.as_f64().unwrap_or(f64::NAN)
+                    )
+                })
+                .collect();
+            let _ = writeln!(s, "  active sets: {}", sets.join("  "));
+        }
+        for (pair, v) in &self.paired {
+            if let Some(er) = v
+                .get("energy_ratio")
+                .and_then(|x| serde_json::from_value::<StatSummary>(x.clone()).ok())
+            {
+                let _ = writeln!(
+                    s,
+                    "\npaired {pair}: energy_ratio difference {:.6} ± {:.2e} (sd {:.4}, n {})",
+                    er.mean, er.ci95, er.sd, er.n
+                );
+            }
+        }
+        s
+    }
+}
