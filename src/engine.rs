@@ -3,6 +3,10 @@
 //! results are merged in batch order, so the answer does not depend on the
 //! thread count or the scheduling.
 
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
 use std::time::Instant;
 
 use multiversion::multiversion;

@@ -15,6 +15,10 @@
 //! - an LCP without an acceptable candidate (jammed, or rounding);
 //! - a plane outside the placement that touches or is penetrated.
 
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
 use glam::{DMat3, DVec3};
 
 use crate::lanes::{select, Real};
@@ -32,6 +36,12 @@ pub const JAMMED: u32 = 1 << 11;
 pub const UNSOLVED: u32 = 1 << 12;
 pub const PENETRATING: u32 = 1 << 13;
 pub const RECOMPUTED: u32 = 1 << 14;
+
+/// `flag` when `c` holds, else 0, without a branch.
+#[inline(always)]
+fn bit(c: bool, flag: u32) -> u32 {
+    (c as u32) * flag
+}
 
 /// Constants of a scene for the kernel, in the lane type.
 #[derive(Debug, Clone)]
@@ -182,7 +192,7 @@ pub fn geometry<T: Real, const N: usize>(
                 out.rho[i][k][s] = rho[i][k];
             }
             status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
-            status |= ((vn.abs() < c.graze * vscale) as u32) * RECOMPUTE;
+            status |= bit(vn.abs() < c.graze * vscale, RECOMPUTE);
         }
         let mut g = [[T::ZERO; N]; N];
         for i in 0..N {
@@ -195,7 +205,7 @@ pub fn geometry<T: Real, const N: usize>(
             }
         }
         let det_s = scaled_det(&g);
-        status |= ((!(det_s >= c.det_min)) as u32) * RECOMPUTE;
+        status |= bit(!(det_s >= c.det_min), RECOMPUTE);
         out.t_before[s] = T::HALF * c.mass * vmag * vmag
             + T::HALF
                 * (c.inertia[0] * w[0] * w[0]
@@ -391,7 +401,7 @@ pub fn impulses<T: Real, const N: usize>(
                 for i in 0..N {
                     out.lambda[i][s] = lam[i];
                 }
-                out.status[s] = geo.status[s] | ((!ok) as u32) * RECOMPUTE;
+                out.status[s] = geo.status[s] | bit(!ok, RECOMPUTE);
             }
         }
         Law::Poisson => {
@@ -411,7 +421,7 @@ pub fn impulses<T: Real, const N: usize>(
                 for i in 0..N {
                     out.lambda[i][s] = lc[i] + klc[i] + mu[i];
                 }
-                out.status[s] = geo.status[s] | ((!(ok1 && ok2)) as u32) * RECOMPUTE;
+                out.status[s] = geo.status[s] | bit(!(ok1 && ok2), RECOMPUTE);
             }
         }
         Law::Pgs { sweeps } => {
@@ -495,7 +505,7 @@ pub fn post<T: Real, const N: usize>(
             out.w_after[k][s] = w[k];
         }
         out.t_after[s] = t1;
-        out.status[s] |= active | (gained as u32) * ENERGY_GAIN | (unsure as u32) * RECOMPUTE;
+        out.status[s] |= active | bit(gained, ENERGY_GAIN) | bit(unsure, RECOMPUTE);
     }
 }
 
@@ -579,10 +589,10 @@ pub fn recompute<T: Real, const N: usize>(
             out.w_after[k][s] = T::from_f64(o.after.omega[k]);
         }
         out.t_after[s] = T::from_f64(o.energy_after);
-        status |= (o.flags.energy_gain as u32) * ENERGY_GAIN
-            | (o.flags.degenerate as u32) * DEGENERATE
-            | (o.flags.jammed as u32) * JAMMED
-            | (o.flags.unsolved as u32) * UNSOLVED;
+        status |= bit(o.flags.energy_gain, ENERGY_GAIN)
+            | bit(o.flags.degenerate, DEGENERATE)
+            | bit(o.flags.jammed, JAMMED)
+            | bit(o.flags.unsolved, UNSOLVED);
         out.status[s] = status;
     }
 }

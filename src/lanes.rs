@@ -13,6 +13,10 @@
 //! do not vectorise). They are accurate to a few ulp of each type and are
 //! tested against `std` below.
 
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// A floating-point lane type: f32 or f64.

@@ -95,6 +95,13 @@ fn stat_units(name: &str) -> &'static str {
     }
 }
 
+/// One (law, group) row: its statistics, fractions and their CIs.
+type Row = (
+    std::collections::HashMap<String, StatSummary>,
+    serde_json::Map<String, serde_json::Value>,
+    serde_json::Map<String, serde_json::Value>,
+);
+
 const STAT_FIELDS: [&str; 9] = [
     "n", "mean", "ci95", "sd", "min", "p01", "median", "p99", "max",
 ];
@@ -110,11 +117,7 @@ pub fn summary_frame(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut impacts = Vec::new();
     let mut stat_names: Vec<String> = Vec::new();
     let mut fraction_names: Vec<String> = Vec::new();
-    let mut rows: Vec<(
-        std::collections::HashMap<String, StatSummary>,
-        serde_json::Map<String, serde_json::Value>,
-        serde_json::Map<String, serde_json::Value>,
-    )> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for (law, lv) in &summary.laws {
         let Some(groups) = lv.get("groups").and_then(|g| g.as_object()) else {
             continue;

@@ -8,6 +8,10 @@
 //! ω = (z3, z4, z5) for normal distributions; uniform distributions use 3–5
 //! for v and 6–8 for ω).
 
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::lanes::{CounterRng, Real};
