@@ -18,8 +18,10 @@ pub struct RawScene {
     /// Metres. Default: 1e-9 × the scene's length scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_tolerance: Option<f64>,
-    /// Samples per work item of the parallel loop (a power of two). Results
-    /// do not depend on it.
+    /// Samples per work item of the parallel loop (a power of two). Counts
+    /// and histograms do not depend on it; means and variances agree to
+    /// rounding (batches are merged in a fixed order, so for a given batch
+    /// size the results are bit-identical for any thread count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub batch_size: Option<u64>,
     pub body: RawBody,

@@ -11,7 +11,7 @@
 //!   at least as well conditioned, so no subset solve can blow up);
 //! - grazing contacts in f32 (`|v_n| < 1e-4 · (|v| + L|ω|)`), where the
 //!   approaching test is not trustworthy;
-//! - energy change in f32 too small to classify `energy_gain`;
+//! - f32 energy changes within rounding of the `energy_gain` threshold;
 //! - an LCP without an acceptable candidate (jammed, or rounding);
 //! - a plane outside the placement that touches or is penetrated.
 
@@ -460,7 +460,7 @@ pub fn post<T: Real, const N: usize>(
 ) {
     let f32_lanes = T::EPSILON.to_f64() > 1e-10;
     let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
-    let ambiguous = T::from_f64(1e-4);
+    let ambiguous = T::from_f64(64.0) * T::EPSILON;
     for s in 0..BLOCK {
         let lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
         let mut dv = [T::ZERO; 3];
@@ -476,6 +476,7 @@ pub fn post<T: Real, const N: usize>(
         let v: [T; 3] = std::array::from_fn(|k| x.v[k][s] + dv[k] * c.inv_mass);
         let w: [T; 3] = std::array::from_fn(|k| x.w[k][s] + dl[k] * c.inv_inertia[k]);
         let mut work = T::ZERO;
+        let mut work_abs = T::ZERO;
         for i in 0..N {
             let mut vn = geo.vn[i][s];
             for j in 0..N {
@@ -483,6 +484,7 @@ pub fn post<T: Real, const N: usize>(
             }
             out.vn_after[i][s] = vn;
             work += lam[i] * (geo.vn[i][s] + vn);
+            work_abs += lam[i] * (geo.vn[i][s].abs() + vn.abs());
         }
         let t0 = geo.t_before[s];
         let direct = T::HALF * c.mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
@@ -499,7 +501,9 @@ pub fn post<T: Real, const N: usize>(
         } else {
             t1 > t0 + gain * t0
         };
-        let unsure = f32_lanes && dt.abs() <= ambiguous * t0 && active != 0;
+        // Rounding bound of dt: a few ε of the sum of |terms|. Only when
+        // the threshold lies within it is the f32 flag in doubt.
+        let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
         for k in 0..3 {
             out.v_after[k][s] = v[k];
             out.w_after[k][s] = w[k];
