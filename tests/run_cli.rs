@@ -1,0 +1,148 @@
+//! `impactmc run` from the command line: scene errors (file, line, field,
+//! value; exit 2), output folder rules, and the JSON summary's public keys.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_impactmc"))
+}
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("impactmc-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn corner3_text() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/corner3.toml"))
+        .unwrap()
+}
+
+/// Runs a scene text; returns (exit code, stdout, stderr).
+fn run_text(tag: &str, text: &str, extra: &[&str]) -> (i32, String, String) {
+    let d = tmpdir(tag);
+    let scene = d.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = bin()
+        .arg("run")
+        .arg(&scene)
+        .args(["--samples", "1000", "--out"])
+        .arg(d.join("out"))
+        .args(extra)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+#[test]
+fn scene_errors_name_file_line_field_and_value() {
+    let base = corner3_text();
+    let cases: &[(&str, &str, &str)] = &[
+        ("mass = 500.0", "mass = -5.0", "scene.toml:10: body.mass: mass must be a finite number > 0, got -5"),
+        ("mass = 500.0", "mass = nan", "body.mass: mass must be a finite number > 0, got NaN"),
+        ("mass = 500.0", "mass = 500.0\ncolour = 1", "unknown field `colour`"),
+        ("normal = [0.0, 1.0, 0.0]", "normal = [0.0, 0.0, 0.0]", ":20: planes[1].normal: normal must be a finite non-zero vector, got [0, 0, 0]"),
+        ("restitution = 0.9", "restitution = 1.9", "planes[2].restitution: restitution must be in [0, 1], got 1.9"),
+        ("laws = [\"newton\", \"paper\"]", "laws = [\"newton\", \"pgs0\"]", ":5: laws[1]: unknown law \"pgs0\""),
+        (
+            "normal = [0.0, 1.0, 0.0]",
+            "normal = [1.0, 0.0, 0.0]",
+            "placement.touching: impossible placement: the normals of [\"wall_x\", \"wall_y\", \"floor\"] are (nearly) dependent",
+        ),
+        ("touching = [\"wall_x\", \"wall_y\", \"floor\"]", "touching = [\"wall_x\", \"ceiling\"]", "placement.touching[1]: no plane is named \"ceiling\""),
+        ("sd = [0.5, 0.5, 0.5]", "sd = [0.5, -0.5, 0.5]", "velocity.sd: must be ≥ 0, got [0.5, -0.5, 0.5]"),
+        ("precision = \"f32\"", "precision = \"f16\"", "precision: must be \"f32\" or \"f64\", got \"f16\""),
+        ("distribution = \"uniform\"", "distribution = \"isotropic\"", "unknown variant `isotropic`"),
+    ];
+    for (from, to, want) in cases {
+        let text = base.replacen(from, to, 1);
+        assert_ne!(text, base, "{from} not found");
+        let (code, out, err) = run_text("err", &text, &[]);
+        assert_eq!(code, 2, "{to}: {err}");
+        assert!(out.is_empty(), "{to}: stdout {out}");
+        assert!(err.contains(want), "{to}: stderr {err:?} lacks {want:?}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn output_folder_rules_and_json_summary() {
+    let d = tmpdir("out");
+    let out_dir = d.join("res");
+    let args = |extra: &[&str]| {
+        let mut c = bin();
+        c.args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
+            "--samples",
+            "20000",
+            "--format",
+            "json",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .args(extra);
+        c.output().unwrap()
+    };
+    let first = args(&[]);
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&first.stdout).unwrap();
+    for key in ["scene", "samples", "seed", "throughput", "laws"] {
+        assert!(v.get(key).is_some(), "missing key {key}");
+    }
+    let all = &v["laws"]["newton"]["groups"]["all"];
+    for key in ["samples", "impacts", "stats", "fractions", "active_sets"] {
+        assert!(all.get(key).is_some(), "missing all.{key}");
+    }
+    for stat in ["energy_ratio", "omega_after_norm", "velocity_after_norm"] {
+        for f in ["mean", "ci95", "sd", "min", "p01", "median", "p99", "max"] {
+            assert!(all["stats"][stat][f].is_number(), "{stat}.{f}");
+        }
+    }
+    assert!(all["active_sets"]["wall_x+wall_y+floor"].as_f64().unwrap() > 0.5);
+    for f in ["summary.parquet", "summary.json", "manifest.json"] {
+        assert!(out_dir.join(f).is_file(), "{f} missing");
+    }
+    // No temporary files are left behind.
+    let leftovers: Vec<_> = std::fs::read_dir(&out_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.contains("partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    // A second run refuses, --force overwrites.
+    let again = args(&[]);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("already holds a run; pass --force"));
+    assert!(args(&["--force"]).status.success());
+    // An unwritable output directory: a path under a regular file.
+    let blocked = d.join("file");
+    std::fs::write(&blocked, "x").unwrap();
+    let out = bin()
+        .args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
+            "--samples",
+            "1000",
+            "--out",
+        ])
+        .arg(blocked.join("sub"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("output folder") && err.contains("file/sub"),
+        "{err}"
+    );
+}
