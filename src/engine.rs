@@ -49,10 +49,12 @@ pub struct LawAcc {
     pub energy_ratio: Stat,
     pub omega_after_norm: Stat,
     pub velocity_after_norm: Stat,
-    /// Per touching plane, over impacting samples (zeros included).
-    pub impulse: Vec<Stat>,
-    /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached.
-    pub rebound: Vec<Stat>,
+    /// Per touching plane, over impacting samples (zeros included); moments
+    /// only (quantiles are kept for the three headline statistics).
+    pub impulse: Vec<Moments>,
+    /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached
+    /// (moments only: for Newton it is exactly k).
+    pub rebound: Vec<Moments>,
     /// Per active set: moments of the three post-impact statistics.
     pub groups: Vec<GroupAcc>,
 }
@@ -87,8 +89,8 @@ impl LawAcc {
             energy_ratio: Stat::default(),
             omega_after_norm: Stat::default(),
             velocity_after_norm: Stat::default(),
-            impulse: vec![Stat::default(); contacts],
-            rebound: vec![Stat::default(); contacts],
+            impulse: vec![Moments::default(); contacts],
+            rebound: vec![Moments::default(); contacts],
             groups: vec![GroupAcc::default(); 1 << contacts],
         }
     }
@@ -101,8 +103,11 @@ impl LawAcc {
         ] {
             s.flush();
         }
-        for s in self.impulse.iter_mut().chain(self.rebound.iter_mut()) {
+        for s in &mut self.impulse {
             s.flush();
+        }
+        for m in &mut self.rebound {
+            m.flush();
         }
         for g in &mut self.groups {
             g.energy_ratio.flush();
@@ -175,14 +180,45 @@ impl RunAcc {
     }
 }
 
+/// Per-lane statistics of one law in a block, f64, with their masks.
+struct Derived<const N: usize> {
+    ratio: [f64; BLOCK],
+    omega: [f64; BLOCK],
+    speed: [f64; BLOCK],
+    /// Weights (1 or 0) of impacting lanes; values are finite everywhere.
+    impacting: [f64; BLOCK],
+    lambda: [[f64; BLOCK]; N],
+    rebound: [[f64; BLOCK]; N],
+    approaching: [[f64; BLOCK]; N],
+    active: [u32; BLOCK],
+    mask: [f64; BLOCK],
+}
+
+impl<const N: usize> Derived<N> {
+    fn new() -> Box<Self> {
+        Box::new(Self {
+            ratio: [0.0; BLOCK],
+            omega: [0.0; BLOCK],
+            speed: [0.0; BLOCK],
+            impacting: [0.0; BLOCK],
+            lambda: [[0.0; BLOCK]; N],
+            rebound: [[0.0; BLOCK]; N],
+            approaching: [[0.0; BLOCK]; N],
+            active: [0; BLOCK],
+            mask: [0.0; BLOCK],
+        })
+    }
+}
+
 /// Scratch space of one worker: allocated once per batch, reused by blocks.
 struct Work<T, const N: usize> {
     inputs: Box<Inputs<T>>,
     geo: Box<Geometry<T, N>>,
     outs: Vec<Box<LawOut<T, N>>>,
-    /// Post-impact (energy ratio, |ω⁺|, |v⁺|) of laws[0], for paired
-    /// differences; NaN where the sample did not impact.
-    first: Vec<[f64; 3]>,
+    derived: Box<Derived<N>>,
+    /// laws[0]'s per-lane statistics, for paired differences.
+    first: Box<Derived<N>>,
+    diff: Box<[f64; BLOCK]>,
 }
 
 impl<T: Real, const N: usize> Work<T, N> {
@@ -191,7 +227,40 @@ impl<T: Real, const N: usize> Work<T, N> {
             inputs: Inputs::new(),
             geo: Geometry::new(),
             outs: (0..laws).map(|_| LawOut::new()).collect(),
-            first: vec![[f64::NAN; 3]; BLOCK],
+            derived: Derived::new(),
+            first: Derived::new(),
+            diff: Box::new([0.0; BLOCK]),
+        }
+    }
+}
+
+/// Per-lane f64 statistics of a law's block results. Lanes past `count`
+/// and penetrating lanes get weight 0, and every value is made finite (0 where
+/// its weight is 0), so masked sums are plain arithmetic.
+#[inline(always)]
+fn derive<T: Real, const N: usize>(geo: &Geometry<T, N>, out: &LawOut<T, N>, count: usize, d: &mut Derived<N>) {
+    let approach_mask = (1u32 << N) - 1;
+    for s in 0..BLOCK {
+        let st = out.status[s];
+        let valid = s < count && st & PENETRATING == 0;
+        let approaching = st & approach_mask;
+        let imp = valid && approaching != 0;
+        d.impacting[s] = imp as u32 as f64;
+        d.active[s] = (st >> ACTIVE_SHIFT) & approach_mask;
+        let ratio = out.t_after[s].to_f64() / geo.t_before[s].to_f64();
+        d.ratio[s] = if imp { ratio } else { 0.0 };
+        let norm = |x: &[[T; BLOCK]; 3]| {
+            let (a, b, c) = (x[0][s].to_f64(), x[1][s].to_f64(), x[2][s].to_f64());
+            (a * a + b * b + c * c).sqrt()
+        };
+        d.omega[s] = if imp { norm(&out.w_after) } else { 0.0 };
+        d.speed[s] = if imp { norm(&out.v_after) } else { 0.0 };
+        for i in 0..N {
+            d.lambda[i][s] = if imp { out.lambda[i][s].to_f64() } else { 0.0 };
+            let on = valid && approaching & (1 << i) != 0;
+            let r = -out.vn_after[i][s].to_f64() / geo.vn[i][s].to_f64();
+            d.rebound[i][s] = if on { r } else { 0.0 };
+            d.approaching[i][s] = on as u32 as f64;
         }
     }
 }
@@ -242,7 +311,6 @@ fn run_block<T: Real, const N: usize>(
         &mut work.outs,
     );
     check_extra_planes(scene, &work.inputs, &mut work.geo, count);
-    let approach_mask = (1u32 << N) - 1;
     for (li, law) in laws.iter().enumerate() {
         let out = &mut work.outs[li];
         // Extra-plane checks landed in geo.status after the lane passes.
@@ -250,66 +318,83 @@ fn run_block<T: Real, const N: usize>(
             out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
         }
         recompute(scene, *law, &work.inputs, out, count);
+    }
+    block_stats(&work.geo, &work.outs, count, &mut work.derived, &mut work.first, &mut work.diff, acc);
+}
+
+/// Accumulates every law's block results: counters, then moments and
+/// histograms as masked vector passes. Compiled like `block_lanes`.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+))]
+fn block_stats<T: Real, const N: usize>(
+    geo: &Geometry<T, N>,
+    outs: &[Box<LawOut<T, N>>],
+    count: usize,
+    derived: &mut Box<Derived<N>>,
+    first: &mut Box<Derived<N>>,
+    diff: &mut [f64; BLOCK],
+    acc: &mut RunAcc,
+) {
+    for li in 0..outs.len() {
         let la = &mut acc.laws[li];
-        for s in 0..count {
-            let st = out.status[s];
+        let out = &outs[li];
+        for &st in &out.status[..count] {
             la.samples += 1;
             la.energy_gain += (st & ENERGY_GAIN != 0) as u64;
             la.degenerate += (st & DEGENERATE != 0) as u64;
             la.jammed += (st & JAMMED != 0) as u64;
             la.unsolved += (st & UNSOLVED != 0) as u64;
             la.recomputed += (st & RECOMPUTED != 0) as u64;
-            if st & PENETRATING != 0 {
-                la.penetrating += 1;
-                if li == 0 {
-                    work.first[s] = [f64::NAN; 3];
-                }
-                continue;
+            la.penetrating += (st & PENETRATING != 0) as u64;
+        }
+        derive(geo, out, count, derived);
+        let d = &mut **derived;
+        for s in 0..count {
+            if out.status[s] & PENETRATING == 0 {
+                la.active_sets[d.active[s] as usize] += 1;
+                la.groups[d.active[s] as usize].samples += 1;
             }
-            let active = ((st >> ACTIVE_SHIFT) & approach_mask) as usize;
-            la.active_sets[active] += 1;
-            let group = &mut la.groups[active];
-            group.samples += 1;
-            let approaching = st & approach_mask;
-            if approaching == 0 {
-                if li == 0 {
-                    work.first[s] = [f64::NAN; 3];
-                }
-                continue;
+            la.impacts += (d.impacting[s] > 0.0) as u64;
+        }
+        la.energy_ratio.push_weighted(&d.ratio, &d.impacting);
+        la.omega_after_norm.push_weighted(&d.omega, &d.impacting);
+        la.velocity_after_norm.push_weighted(&d.speed, &d.impacting);
+        for i in 0..N {
+            la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
+            la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
+        }
+        for (m, g) in la.groups.iter_mut().enumerate() {
+            let mut hits = 0.0;
+            for s in 0..BLOCK {
+                d.mask[s] = if d.active[s] as usize == m { d.impacting[s] } else { 0.0 };
+                hits += d.mask[s];
             }
-            la.impacts += 1;
-            group.impacts += 1;
-            let t0 = work.geo.t_before[s].to_f64();
-            let ratio = out.t_after[s].to_f64() / t0;
-            let norm = |x: &[[T; BLOCK]; 3]| {
-                let (a, b, c) = (x[0][s].to_f64(), x[1][s].to_f64(), x[2][s].to_f64());
-                (a * a + b * b + c * c).sqrt()
-            };
-            let wn = norm(&out.w_after);
-            let vn = norm(&out.v_after);
-            la.energy_ratio.push(ratio);
-            la.omega_after_norm.push(wn);
-            la.velocity_after_norm.push(vn);
-            group.energy_ratio.push(ratio);
-            group.omega_after_norm.push(wn);
-            group.velocity_after_norm.push(vn);
-            for i in 0..N {
-                la.impulse[i].push(out.lambda[i][s].to_f64());
-                if approaching & (1 << i) != 0 {
-                    let before = work.geo.vn[i][s].to_f64();
-                    la.rebound[i].push(-out.vn_after[i][s].to_f64() / before);
-                }
+            if hits > 0.0 {
+                g.impacts += hits as u64;
+                g.energy_ratio.push_weighted(&d.ratio, &d.mask);
+                g.omega_after_norm.push_weighted(&d.omega, &d.mask);
+                g.velocity_after_norm.push_weighted(&d.speed, &d.mask);
             }
-            if li == 0 {
-                work.first[s] = [ratio, wn, vn];
-            } else {
-                let f = work.first[s];
-                if !f[0].is_nan() {
-                    let p = &mut acc.pairs[li - 1];
-                    p.energy_ratio.push(ratio - f[0]);
-                    p.omega_after_norm.push(wn - f[1]);
-                    p.velocity_after_norm.push(vn - f[2]);
+        }
+        if li == 0 {
+            std::mem::swap(first, derived);
+        } else {
+            let (f, d) = (&**first, &mut **derived);
+            for s in 0..BLOCK {
+                d.mask[s] = d.impacting[s] * f.impacting[s];
+            }
+            let p = &mut acc.pairs[li - 1];
+            for (target, a, b) in [
+                (&mut p.energy_ratio, &d.ratio, &f.ratio),
+                (&mut p.omega_after_norm, &d.omega, &f.omega),
+                (&mut p.velocity_after_norm, &d.speed, &f.speed),
+            ] {
+                for s in 0..BLOCK {
+                    diff[s] = a[s] - b[s];
                 }
+                target.push_weighted(diff, &d.mask);
             }
         }
     }

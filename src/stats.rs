@@ -58,6 +58,56 @@ impl Moments {
         self.max = self.max.max(x);
     }
 
+    /// Adds the values of `xs` with weight 1 in `w` (weights are 0 or 1;
+    /// every `xs` must be finite). The sums run in eight fixed partial
+    /// accumulators, so the loop vectorises and the order of additions is
+    /// fixed.
+    #[inline(always)]
+    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+        if self.pending_n == 0 {
+            match xs.iter().zip(w).find(|(_, &m)| m > 0.0) {
+                Some((&x, _)) => self.shift = x,
+                None => return,
+            }
+        }
+        let shift = self.shift;
+        let mut n = [0f64; 8];
+        let mut s1 = [0f64; 8];
+        let mut s2 = [0f64; 8];
+        let mut lo = [f64::INFINITY; 8];
+        let mut hi = [f64::NEG_INFINITY; 8];
+        for c in 0..B / 8 {
+            for j in 0..8 {
+                let k = c * 8 + j;
+                let (x, wk) = (xs[k], w[k]);
+                let d = (x - shift) * wk;
+                n[j] += wk;
+                s1[j] += d;
+                s2[j] += d * d;
+                let on = wk > 0.0;
+                lo[j] = lo[j].min(if on { x } else { f64::INFINITY });
+                hi[j] = hi[j].max(if on { x } else { f64::NEG_INFINITY });
+            }
+        }
+        for k in B / 8 * 8..B {
+            if w[k] > 0.0 {
+                let d = xs[k] - shift;
+                n[0] += 1.0;
+                s1[0] += d;
+                s2[0] += d * d;
+                lo[0] = lo[0].min(xs[k]);
+                hi[0] = hi[0].max(xs[k]);
+            }
+        }
+        for j in 0..8 {
+            self.pending_n += n[j] as u64;
+            self.s1 += s1[j];
+            self.s2 += s2[j];
+            self.min = self.min.min(lo[j]);
+            self.max = self.max.max(hi[j]);
+        }
+    }
+
     /// Folds the pending batch sums into the merged moments.
     pub fn flush(&mut self) {
         if self.pending_n == 0 {
@@ -160,7 +210,7 @@ impl Default for LogHistogram {
     }
 }
 
-#[inline]
+#[inline(always)]
 fn bin_of(mag: f64) -> usize {
     let bits = mag.to_bits();
     let exp = ((bits >> 52) & 0x7ff) as i32 - 1023;
@@ -180,6 +230,29 @@ pub fn bin_edges(b: usize) -> (f64, f64) {
 }
 
 impl LogHistogram {
+    /// Adds the values of `xs` with weight 1: bin indices in a vectorised
+    /// pass, increments by the weight (no branch); values ≤ 0 go through
+    /// [`Self::push`].
+    #[inline(always)]
+    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+        let mut idx = [0u16; B];
+        let mut other = false;
+        for k in 0..B {
+            idx[k] = bin_of(xs[k].abs()) as u16;
+            other |= w[k] > 0.0 && !(xs[k] > 0.0);
+        }
+        for k in 0..B {
+            self.pos[idx[k] as usize] += (w[k] > 0.0 && xs[k] > 0.0) as u64;
+        }
+        if other {
+            for k in 0..B {
+                if w[k] > 0.0 && !(xs[k] > 0.0) {
+                    self.push(xs[k]);
+                }
+            }
+        }
+    }
+
     #[inline]
     pub fn push(&mut self, x: f64) {
         if x > 0.0 {
@@ -264,6 +337,12 @@ pub struct Stat {
 }
 
 impl Stat {
+    #[inline(always)]
+    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+        self.moments.push_weighted(xs, w);
+        self.hist.push_weighted(xs, w);
+    }
+
     #[inline]
     pub fn push(&mut self, x: f64) {
         self.moments.push(x);
@@ -294,10 +373,22 @@ mod tests {
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() - 1) as f64;
         let mut whole = Moments::default();
-        for chunk in xs.chunks(777) {
+        for (c, chunk) in xs.chunks(777).enumerate() {
             let mut part = Moments::default();
-            for &x in chunk {
-                part.push(x);
+            if c % 2 == 0 {
+                for &x in chunk {
+                    part.push(x);
+                }
+            } else {
+                // The weighted block form, in blocks of 8 with a weight-0
+                // filler value that must not count.
+                for b in chunk.chunks(8) {
+                    let mut xs = [-1e300f64; 8];
+                    let mut w = [0f64; 8];
+                    xs[..b.len()].copy_from_slice(b);
+                    w[..b.len()].fill(1.0);
+                    part.push_weighted(&xs, &w);
+                }
             }
             part.flush();
             whole.merge(&part);
@@ -322,9 +413,8 @@ mod tests {
             assert!((got - want).abs() / want < 0.011, "p{p}: {got} vs {want}");
         }
         let mut s = Stat::default();
-        for x in [-3.0, -1.0, 0.0, 2.0] {
-            s.push(x);
-        }
+        s.push_weighted(&[-3.0, -1.0, 0.0, 2.0, 7.0], &[1.0, 1.0, 1.0, 1.0, 0.0]);
+        assert_eq!(s.hist.total(), 4);
         assert!(s.quantile(0.1) < -1.0 && s.quantile(0.9) > 0.0);
     }
 }
