@@ -238,29 +238,52 @@ impl<T: Real, const N: usize> Work<T, N> {
 /// and penetrating lanes get weight 0, and every value is made finite (0 where
 /// its weight is 0), so masked sums are plain arithmetic.
 #[inline(always)]
-fn derive<T: Real, const N: usize>(geo: &Geometry<T, N>, out: &LawOut<T, N>, count: usize, d: &mut Derived<N>) {
+fn derive<T: Real, const N: usize>(
+    geo: &Geometry<T, N>,
+    out: &LawOut<T, N>,
+    count: usize,
+    d: &mut Derived<N>,
+) {
     let approach_mask = (1u32 << N) - 1;
+    // Separate simple loops with non-short-circuit logic: each one
+    // vectorises on its own.
     for s in 0..BLOCK {
         let st = out.status[s];
-        let valid = s < count && st & PENETRATING == 0;
+        let valid = (s < count) & (st & PENETRATING == 0);
         let approaching = st & approach_mask;
-        let imp = valid && approaching != 0;
-        d.impacting[s] = imp as u32 as f64;
+        d.impacting[s] = (valid & (approaching != 0)) as u32 as f64;
         d.active[s] = (st >> ACTIVE_SHIFT) & approach_mask;
-        let ratio = out.t_after[s].to_f64() / geo.t_before[s].to_f64();
-        d.ratio[s] = if imp { ratio } else { 0.0 };
-        let norm = |x: &[[T; BLOCK]; 3]| {
-            let (a, b, c) = (x[0][s].to_f64(), x[1][s].to_f64(), x[2][s].to_f64());
-            (a * a + b * b + c * c).sqrt()
-        };
-        d.omega[s] = if imp { norm(&out.w_after) } else { 0.0 };
-        d.speed[s] = if imp { norm(&out.v_after) } else { 0.0 };
         for i in 0..N {
-            d.lambda[i][s] = if imp { out.lambda[i][s].to_f64() } else { 0.0 };
-            let on = valid && approaching & (1 << i) != 0;
+            d.approaching[i][s] = (valid & (approaching & (1 << i) != 0)) as u32 as f64;
+        }
+    }
+    for s in 0..BLOCK {
+        let ratio = out.t_after[s].to_f64() / geo.t_before[s].to_f64();
+        d.ratio[s] = if d.impacting[s] > 0.0 { ratio } else { 0.0 };
+    }
+    for s in 0..BLOCK {
+        let (a, b, c) = (
+            out.w_after[0][s].to_f64(),
+            out.w_after[1][s].to_f64(),
+            out.w_after[2][s].to_f64(),
+        );
+        let w = (a * a + b * b + c * c).sqrt();
+        let (a, b, c) = (
+            out.v_after[0][s].to_f64(),
+            out.v_after[1][s].to_f64(),
+            out.v_after[2][s].to_f64(),
+        );
+        let v = (a * a + b * b + c * c).sqrt();
+        let on = d.impacting[s] > 0.0;
+        d.omega[s] = if on { w } else { 0.0 };
+        d.speed[s] = if on { v } else { 0.0 };
+    }
+    for i in 0..N {
+        for s in 0..BLOCK {
+            let on = d.impacting[s] > 0.0;
+            d.lambda[i][s] = if on { out.lambda[i][s].to_f64() } else { 0.0 };
             let r = -out.vn_after[i][s].to_f64() / geo.vn[i][s].to_f64();
-            d.rebound[i][s] = if on { r } else { 0.0 };
-            d.approaching[i][s] = on as u32 as f64;
+            d.rebound[i][s] = if d.approaching[i][s] > 0.0 { r } else { 0.0 };
         }
     }
 }
@@ -319,7 +342,15 @@ fn run_block<T: Real, const N: usize>(
         }
         recompute(scene, *law, &work.inputs, out, count);
     }
-    block_stats(&work.geo, &work.outs, count, &mut work.derived, &mut work.first, &mut work.diff, acc);
+    block_stats(
+        &work.geo,
+        &work.outs,
+        count,
+        &mut work.derived,
+        &mut work.first,
+        &mut work.diff,
+        acc,
+    );
 }
 
 /// Accumulates every law's block results: counters, then moments and
@@ -366,12 +397,14 @@ fn block_stats<T: Real, const N: usize>(
             la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
         }
         for (m, g) in la.groups.iter_mut().enumerate() {
-            let mut hits = 0.0;
+            // Integer counting keeps this loop vectorisable.
+            let mut hits = 0u32;
             for s in 0..BLOCK {
-                d.mask[s] = if d.active[s] as usize == m { d.impacting[s] } else { 0.0 };
-                hits += d.mask[s];
+                let on = (d.active[s] == m as u32) as u32 & (d.impacting[s] > 0.0) as u32;
+                d.mask[s] = on as f64;
+                hits += on;
             }
-            if hits > 0.0 {
+            if hits > 0 {
                 g.impacts += hits as u64;
                 g.energy_ratio.push_weighted(&d.ratio, &d.mask);
                 g.omega_after_norm.push_weighted(&d.omega, &d.mask);

@@ -239,10 +239,10 @@ impl LogHistogram {
         let mut other = false;
         for k in 0..B {
             idx[k] = bin_of(xs[k].abs()) as u16;
-            other |= w[k] > 0.0 && !(xs[k] > 0.0);
+            other |= (w[k] > 0.0) & !(xs[k] > 0.0);
         }
         for k in 0..B {
-            self.pos[idx[k] as usize] += (w[k] > 0.0 && xs[k] > 0.0) as u64;
+            self.pos[idx[k] as usize] += ((w[k] > 0.0) & (xs[k] > 0.0)) as u64;
         }
         if other {
             for k in 0..B {
