@@ -1,1 +1,90 @@
-fn main() {}
+//! Kernel throughput per scene, law and precision (criterion), on one thread
+//! so the figures are per core. End-to-end multi-thread figures come from
+//! `impactmc run` (README, "Performance").
+//!
+//! `cargo bench --bench kernel` (add `-- corner3` to filter).
+
+use std::path::Path;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use impactmc::engine::{run, RunOptions};
+use impactmc::physics::{solve_impact, Law, Pose, State};
+use impactmc::sampler::Sampler;
+use impactmc::scene::{load_scene, Overrides, Scene};
+
+const SAMPLES: u64 = 1 << 18;
+
+fn scene(name: &str, law: &str, precision: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
+    load_scene(
+        &path,
+        &Overrides {
+            samples: Some(SAMPLES),
+            seed: Some(1),
+            laws: Some(vec![law.into()]),
+            precision: Some(precision.into()),
+        },
+    )
+    .expect("shipped scene")
+}
+
+fn kernel(c: &mut Criterion) {
+    let mut g = c.benchmark_group("kernel");
+    g.throughput(Throughput::Elements(SAMPLES));
+    g.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
+    let cases: &[(&str, &[&str])] = &[
+        ("floor", &["newton"]),
+        ("corner2_paper", &["newton", "paper"]),
+        ("corner3", &["newton", "paper", "poisson", "pgs8"]),
+    ];
+    for (name, laws) in cases {
+        for law in *laws {
+            for precision in ["f32", "f64"] {
+                let s = scene(name, law, precision);
+                let opts = RunOptions { threads: 1, progress: false };
+                g.bench_function(BenchmarkId::new(format!("{name}/{law}"), precision), |b| {
+                    b.iter(|| run(&s, &opts).expect("pool"))
+                });
+            }
+        }
+    }
+    g.finish();
+}
+
+/// The scalar f64 reference, one sample at a time: the baseline the SoA
+/// kernel is measured against.
+fn reference(c: &mut Criterion) {
+    let mut g = c.benchmark_group("reference");
+    let n = 1u64 << 12;
+    g.throughput(Throughput::Elements(n));
+    g.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(300));
+    for name in ["floor", "corner3"] {
+        let s = scene(name, "newton", "f64");
+        let sampler = Sampler::new(&s);
+        let planes: Vec<_> = s.planes().iter().map(|p| p.plane).collect();
+        g.bench_function(BenchmarkId::new(name, "newton"), |b| {
+            b.iter(|| {
+                let mut acc = 0.0;
+                for i in 0..n {
+                    let (a, v, w) = sampler.reference(i);
+                    let o = solve_impact(
+                        s.body(),
+                        Pose { rotation: a, centre: s.centre(a) },
+                        State { velocity: v, omega: w },
+                        &planes,
+                        Law::Newton,
+                        s.tolerance(),
+                    )
+                    .expect("≤ 16 contacts");
+                    acc += o.energy_after / o.energy_before;
+                }
+                acc
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, kernel, reference);
+criterion_main!(benches);
