@@ -117,8 +117,22 @@ fn solve(path: &PathBuf) -> Result<(), Failure> {
         code: 1,
         message: e.to_string(),
     })?;
-    println!("{json}");
+    emit(&format!("{json}\n"));
     Ok(())
+}
+
+/// Writes to stdout; a closed pipe (`| head`) ends the program quietly
+/// instead of panicking.
+fn emit(text: &str) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: stdout: {e}");
+        std::process::exit(1);
+    }
 }
 
 fn run_scene(args: &RunArgs) -> Result<(), Failure> {
@@ -152,13 +166,6 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     })?;
     let finished = std::time::SystemTime::now();
     let summary = Summary::new(&scene, &result);
-    match args.format {
-        Format::Text => print!("{}", summary.to_text()),
-        Format::Json => println!(
-            "{}",
-            serde_json::to_string_pretty(&summary).expect("summary serialises")
-        ),
-    }
     let fail = |e: impactmc::output::OutputError| Failure {
         code: 1,
         message: e.to_string(),
@@ -181,8 +188,16 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         files: vec!["summary.parquet".into(), "summary.json".into()],
     };
     write_json(&dir, "manifest.json", &manifest).map_err(fail)?;
+    // Outputs first, so a closed stdout never costs the results.
+    match args.format {
+        Format::Text => emit(&summary.to_text()),
+        Format::Json => emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(&summary).expect("summary serialises")
+        )),
+    }
     if matches!(args.format, Format::Text) {
-        println!("\nwrote {}", dir.display());
+        emit(&format!("\nwrote {}\n", dir.display()));
     }
     Ok(())
 }
