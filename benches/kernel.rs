@@ -32,7 +32,9 @@ fn scene(name: &str, law: &str, precision: &str) -> Scene {
 fn kernel(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
     g.throughput(Throughput::Elements(SAMPLES));
-    g.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
     let cases: &[(&str, &[&str])] = &[
         ("floor", &["newton"]),
         ("corner2_paper", &["newton", "paper"]),
@@ -42,7 +44,10 @@ fn kernel(c: &mut Criterion) {
         for law in *laws {
             for precision in ["f32", "f64"] {
                 let s = scene(name, law, precision);
-                let opts = RunOptions { threads: 1, progress: false };
+                let opts = RunOptions {
+                    threads: 1,
+                    progress: false,
+                };
                 g.bench_function(BenchmarkId::new(format!("{name}/{law}"), precision), |b| {
                     b.iter(|| run(&s, &opts).expect("pool"))
                 });
@@ -58,7 +63,9 @@ fn reference(c: &mut Criterion) {
     let mut g = c.benchmark_group("reference");
     let n = 1u64 << 12;
     g.throughput(Throughput::Elements(n));
-    g.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(300));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(300));
     for name in ["floor", "corner3"] {
         let s = scene(name, "newton", "f64");
         let sampler = Sampler::new(&s);
@@ -70,8 +77,14 @@ fn reference(c: &mut Criterion) {
                     let (a, v, w) = sampler.reference(i);
                     let o = solve_impact(
                         s.body(),
-                        Pose { rotation: a, centre: s.centre(a) },
-                        State { velocity: v, omega: w },
+                        Pose {
+                            rotation: a,
+                            centre: s.centre(a),
+                        },
+                        State {
+                            velocity: v,
+                            omega: w,
+                        },
                         &planes,
                         Law::Newton,
                         s.tolerance(),

@@ -85,15 +85,21 @@ pub fn solve_lcp(g: &SymMatrix, q: &[f64]) -> LcpSolution {
             .zip(q)
             .map(|(gl, qi)| gl + qi)
             .collect();
-        // Violations as velocities: −λ_i G_ii for the support, −w_j elsewhere.
+        // Violations as velocities: −λ_i G_ii and the residual |w_i| on the
+        // support, −w_j elsewhere; each charged with its own rounding bound
+        // 8ε·(|q_i| + Σ_j |G_ij λ_j|), so that a nearly singular support with
+        // huge cancelling impulses cannot pass for an exact solution.
         let mut violation = 0f64;
         for i in 0..n {
+            let noise = 8.0
+                * f64::EPSILON
+                * (q[i].abs() + (0..n).map(|j| (g.get(i, j) * lambda[j]).abs()).sum::<f64>());
             let v = if mask & (1 << i) != 0 {
-                -lambda[i] * g.get(i, i)
+                (-lambda[i] * g.get(i, i)).max(w[i].abs())
             } else {
                 -w[i]
             };
-            violation = violation.max(v);
+            violation = violation.max(v + noise);
         }
         if !violation.is_finite() {
             continue;
