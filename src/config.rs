@@ -30,6 +30,11 @@ pub struct RawScene {
     pub orientation: RawOrientation,
     pub velocity: RawVector,
     pub angular_velocity: RawVector,
+    /// A grid over numeric scene fields: `"body.semi_axes[2]" = [0.5, 1, 2]`,
+    /// `"planes.floor.restitution" = [0.2, 0.5]` (planes by name or index).
+    /// Every point uses the same seed (common random numbers).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<toml::Table>,
 }
 
 fn default_precision() -> String {

@@ -18,7 +18,9 @@ pub mod physics;
 pub mod sampler;
 pub mod scene;
 pub mod stats;
+pub mod study;
 pub mod summary;
+pub mod sweep;
 
 /// Version of the output schema (Parquet columns, JSON keys, manifest).
 pub const SCHEMA_VERSION: u32 = 1;

@@ -8,11 +8,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use impactmc::case::{parse_case, Case};
-use impactmc::engine::{run, RunOptions};
-use impactmc::manifest::{utc_string, Machine, Manifest};
-use impactmc::output::{prepare_dir, write_json, write_summary_parquet};
-use impactmc::scene::{load_scene, Overrides};
-use impactmc::summary::Summary;
+use impactmc::engine::RunOptions;
+use impactmc::output::prepare_dir;
+use impactmc::scene::Overrides;
+use impactmc::study::{run_study, StudyError};
+use impactmc::sweep::plan;
 
 /// The scene `impactmc run` uses when given none.
 const DEFAULT_SCENE: &str = "configs/corner3.toml";
@@ -146,58 +146,43 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
         precision: args.precision.clone(),
     };
-    let scene = load_scene(&path, &overrides).map_err(|e| bad_input(e.to_string()))?;
+    // Validate the scene (every sweep point) and the folder before any work.
+    let (_, points) = plan(&path, &overrides).map_err(|e| bad_input(e.to_string()))?;
+    let name = points[0].scene.name().to_string();
     let dir = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(scene.name()));
+        .unwrap_or_else(|| PathBuf::from("results").join(&name));
     prepare_dir(&dir, args.force).map_err(|e| bad_input(e.to_string()))?;
-    let started = std::time::SystemTime::now();
-    let result = run(
-        &scene,
+    let study = run_study(
+        &path,
+        &overrides,
         &RunOptions {
             threads: args.threads,
             progress: true,
         },
     )
-    .map_err(|e| Failure {
-        code: 1,
-        message: format!("thread pool: {e}"),
+    .map_err(|e| match e {
+        StudyError::Scene(e) => bad_input(e.to_string()),
+        other => Failure {
+            code: 1,
+            message: other.to_string(),
+        },
     })?;
-    let finished = std::time::SystemTime::now();
-    let summary = Summary::new(&scene, &result);
-    let fail = |e: impactmc::output::OutputError| Failure {
+    // Outputs first, so a closed stdout never costs the results.
+    study.write(&dir, None).map_err(|e| Failure {
         code: 1,
         message: e.to_string(),
-    };
-    write_summary_parquet(&dir, &summary).map_err(fail)?;
-    write_json(&dir, "summary.json", &summary).map_err(fail)?;
-    let manifest = Manifest {
-        schema_version: impactmc::SCHEMA_VERSION,
-        impactmc_version: env!("CARGO_PKG_VERSION"),
-        git_commit: env!("IMPACTMC_GIT_COMMIT"),
-        scene: scene.raw().clone(),
-        seed: scene.seed(),
-        samples: scene.samples(),
-        started_utc: utc_string(started),
-        finished_utc: utc_string(finished),
-        wall_seconds: result.wall_seconds,
-        cpu_seconds: result.cpu_seconds,
-        threads: result.threads,
-        machine: Machine::current(),
-        files: vec!["summary.parquet".into(), "summary.json".into()],
-    };
-    write_json(&dir, "manifest.json", &manifest).map_err(fail)?;
-    // Outputs first, so a closed stdout never costs the results.
+    })?;
     match args.format {
-        Format::Text => emit(&summary.to_text()),
+        Format::Text => {
+            emit(&study.text());
+            emit(&format!("\nwrote {}\n", dir.display()));
+        }
         Format::Json => emit(&format!(
             "{}\n",
-            serde_json::to_string_pretty(&summary).expect("summary serialises")
+            serde_json::to_string_pretty(&study.summary_json()).expect("summary serialises")
         )),
-    }
-    if matches!(args.format, Format::Text) {
-        emit(&format!("\nwrote {}\n", dir.display()));
     }
     Ok(())
 }

@@ -48,7 +48,10 @@ pub struct Manifest {
     /// The validated scene with every default explicit (and overrides applied).
     pub scene: RawScene,
     pub seed: u64,
+    /// Samples per grid point.
     pub samples: u64,
+    /// Grid points (1 without a sweep).
+    pub points: usize,
     pub started_utc: String,
     pub finished_utc: String,
     pub wall_seconds: f64,

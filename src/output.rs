@@ -49,37 +49,116 @@ pub fn prepare_dir(dir: &Path, force: bool) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// Writes `name` in `dir` through `write`, via a temporary file renamed at
-/// the end.
-pub fn write_atomic(
-    dir: &Path,
-    name: &str,
-    write: impl FnOnce(&mut fs::File) -> Result<(), OutputError>,
-) -> Result<PathBuf, OutputError> {
-    let final_path = dir.join(name);
-    let tmp = dir.join(format!(".{name}.partial-{}", std::process::id()));
-    let mut f = fs::File::create(&tmp).map_err(io(&tmp))?;
-    let result = write(&mut f).and_then(|_| f.sync_all().map_err(io(&tmp)));
-    drop(f);
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    fs::rename(&tmp, &final_path).map_err(io(&final_path))?;
-    Ok(final_path)
+/// Files of a run folder written under temporary names (`.NAME.partial-PID`)
+/// and renamed together by [`Staging::commit`], the manifest last. Until then
+/// nothing in the folder looks complete; dropping an uncommitted staging area
+/// (an error, a panic) removes its temporary files.
+pub struct Staging {
+    dir: PathBuf,
+    files: Vec<(PathBuf, PathBuf)>,
+    committed: bool,
 }
 
-/// Writes JSON atomically.
-pub fn write_json<T: serde::Serialize>(
-    dir: &Path,
-    name: &str,
-    value: &T,
-) -> Result<PathBuf, OutputError> {
-    write_atomic(dir, name, |f| {
-        let text = serde_json::to_string_pretty(value).expect("serialisable");
-        f.write_all(text.as_bytes()).map_err(io(Path::new(name)))?;
-        f.write_all(b"\n").map_err(io(Path::new(name)))
-    })
+impl Staging {
+    pub fn new(dir: &Path) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+            files: Vec::new(),
+            committed: false,
+        }
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Creates the temporary file for `name`.
+    pub fn create(&mut self, name: &str) -> Result<fs::File, OutputError> {
+        let final_path = self.dir.join(name);
+        let tmp = self
+            .dir
+            .join(format!(".{name}.partial-{}", std::process::id()));
+        let f = fs::File::create(&tmp).map_err(io(&tmp))?;
+        self.files.push((tmp, final_path));
+        Ok(f)
+    }
+
+    /// Writes `name` through `write` and syncs it.
+    pub fn write(
+        &mut self,
+        name: &str,
+        write: impl FnOnce(&mut fs::File) -> Result<(), OutputError>,
+    ) -> Result<(), OutputError> {
+        let mut f = self.create(name)?;
+        write(&mut f)?;
+        f.sync_all().map_err(io(&self.dir.join(name)))
+    }
+
+    /// Writes JSON.
+    pub fn write_json<T: serde::Serialize>(
+        &mut self,
+        name: &str,
+        value: &T,
+    ) -> Result<(), OutputError> {
+        let text = serde_json::to_string_pretty(value).expect("serialisable") + "\n";
+        let path = self.dir.join(name);
+        self.write(name, |f| f.write_all(text.as_bytes()).map_err(io(&path)))
+    }
+
+    /// Renames every file into place, in the order written (write the
+    /// manifest last).
+    pub fn commit(mut self) -> Result<Vec<PathBuf>, OutputError> {
+        let mut done = Vec::new();
+        for (tmp, final_path) in std::mem::take(&mut self.files) {
+            fs::rename(&tmp, &final_path).map_err(io(&final_path))?;
+            done.push(final_path);
+        }
+        self.committed = true;
+        Ok(done)
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if !self.committed {
+            for (tmp, _) in &self.files {
+                let _ = fs::remove_file(tmp);
+            }
+        }
+    }
+}
+
+/// Column name of a swept field: `sweep_` and the path with every run of
+/// other characters than letters and digits turned into `_`
+/// (`body.semi_axes[2]` → `sweep_body_semi_axes_2`).
+pub fn sweep_column(path: &str) -> String {
+    let mut out = String::from("sweep_");
+    let mut last_us = true;
+    for ch in path.chars() {
+        if ch.is_ascii_alphanumeric() {
+            out.push(ch);
+            last_us = false;
+        } else if !last_us {
+            out.push('_');
+            last_us = true;
+        }
+    }
+    out.trim_end_matches('_').to_string()
+}
+
+/// Adds `point` and the swept values as leading columns repeated per row.
+fn with_point_columns(
+    df: DataFrame,
+    point: usize,
+    values: &[(String, f64)],
+) -> Result<DataFrame, PolarsError> {
+    let h = df.height();
+    let mut cols = vec![Column::new("point".into(), vec![point as u32; h])];
+    for (path, x) in values {
+        cols.push(Column::new(sweep_column(path).into(), vec![*x; h]));
+    }
+    cols.extend(df.columns().iter().cloned());
+    DataFrame::new(h, cols)
 }
 
 /// The statistic columns of the summary table, with their units.
@@ -110,7 +189,7 @@ const STAT_FIELDS: [&str; 9] = [
 /// `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
 /// group keeps no quantiles), and `fraction_FLAG` / `fraction_FLAG_ci95` on
 /// the "all" rows. Units are in the file's key-value metadata (`units`).
-pub fn summary_frame(summary: &Summary) -> Result<DataFrame, PolarsError> {
+fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut law_col = Vec::new();
     let mut group_col = Vec::new();
     let mut samples = Vec::new();
@@ -194,8 +273,75 @@ pub fn summary_frame(summary: &Summary) -> Result<DataFrame, PolarsError> {
     DataFrame::new(height, cols)
 }
 
+/// The summary table of a study: [`summary_frame_one`] per grid point, with
+/// `point` and the `sweep_*` columns in front.
+pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFrame, PolarsError> {
+    let mut out: Option<DataFrame> = None;
+    for (i, (values, summary)) in points.iter().enumerate() {
+        let df = with_point_columns(summary_frame_one(summary)?, i, values)?;
+        out = Some(match out {
+            None => df,
+            Some(mut acc) => {
+                acc.vstack_mut(&df)?;
+                acc
+            }
+        });
+    }
+    out.ok_or_else(|| PolarsError::ComputeError("a study has at least one point".into()))
+}
+
+/// `histograms.parquet`: the non-empty log-linear bins of every histogram
+/// kept (law, group "all", the three headline statistics), one row per bin:
+/// `point`, `sweep_*`, `law`, `group`, `statistic`, `bin_lo`, `bin_hi`,
+/// `count`. Bins are [bin_lo, bin_hi); an exact zero is the bin [0, 0].
+pub fn histograms_frame(
+    points: &[(Vec<(String, f64)>, Vec<(String, &crate::engine::LawAcc)>)],
+) -> Result<DataFrame, PolarsError> {
+    let mut out: Option<DataFrame> = None;
+    for (i, (values, laws)) in points.iter().enumerate() {
+        let (mut law, mut stat, mut lo, mut hi, mut count) =
+            (vec![], vec![], vec![], vec![], vec![]);
+        for (name, acc) in laws {
+            for (sname, st) in [
+                ("energy_ratio", &acc.energy_ratio),
+                ("omega_after_norm", &acc.omega_after_norm),
+                ("velocity_after_norm", &acc.velocity_after_norm),
+            ] {
+                for (l, h, c) in st.hist.bins() {
+                    law.push(name.clone());
+                    stat.push(sname.to_string());
+                    lo.push(l);
+                    hi.push(h);
+                    count.push(c);
+                }
+            }
+        }
+        let n = law.len();
+        let df = DataFrame::new(
+            n,
+            vec![
+                Column::new("law".into(), law),
+                Column::new("group".into(), vec!["all"; n]),
+                Column::new("statistic".into(), stat),
+                Column::new("bin_lo".into(), lo),
+                Column::new("bin_hi".into(), hi),
+                Column::new("count".into(), count),
+            ],
+        )?;
+        let df = with_point_columns(df, i, values)?;
+        out = Some(match out {
+            None => df,
+            Some(mut acc) => {
+                acc.vstack_mut(&df)?;
+                acc
+            }
+        });
+    }
+    out.ok_or_else(|| PolarsError::ComputeError("a study has at least one point".into()))
+}
+
 /// Key-value metadata: units of every statistic and the schema version.
-fn metadata(summary: &Summary) -> KeyValueMetadata {
+pub(crate) fn metadata(summary: &Summary) -> KeyValueMetadata {
     let mut units = serde_json::Map::new();
     if let Some(all) = summary
         .laws
@@ -222,20 +368,25 @@ fn metadata(summary: &Summary) -> KeyValueMetadata {
     ])
 }
 
-/// Writes `summary.parquet` (zstd) atomically.
-pub fn write_summary_parquet(dir: &Path, summary: &Summary) -> Result<PathBuf, OutputError> {
-    let name = "summary.parquet";
-    let err = |source| OutputError::Parquet {
-        path: dir.join(name).display().to_string(),
-        source,
-    };
-    let mut df = summary_frame(summary).map_err(err)?;
-    write_atomic(dir, name, |f| {
+/// Writes a frame as zstd Parquet into the staging area.
+pub fn write_parquet(
+    staging: &mut Staging,
+    name: &str,
+    df: &mut DataFrame,
+    metadata: KeyValueMetadata,
+) -> Result<(), OutputError> {
+    let path = staging.dir().join(name).display().to_string();
+    staging.write(name, |f| {
         ParquetWriter::new(f)
             .with_compression(ParquetCompression::Zstd(None))
-            .with_key_value_metadata(Some(metadata(summary)))
-            .finish(&mut df)
+            .with_key_value_metadata(Some(metadata))
+            .finish(df)
             .map(|_| ())
-            .map_err(err)
+            .map_err(|source| OutputError::Parquet { path, source })
     })
+}
+
+/// Key-value metadata for a table: schema version and units.
+pub fn table_metadata(summary: &Summary) -> KeyValueMetadata {
+    metadata(summary)
 }
