@@ -24,6 +24,7 @@ fn scene(name: &str, law: &str, precision: &str) -> Scene {
             seed: Some(1),
             laws: Some(vec![law.into()]),
             precision: Some(precision.into()),
+            ..Overrides::default()
         },
     )
     .expect("shipped scene")

@@ -35,6 +35,20 @@ pub struct RawScene {
     /// Every point uses the same seed (common random numbers).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<toml::Table>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<RawOutput>,
+}
+
+/// What a run writes beyond the summary tables.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawOutput {
+    /// Write `samples.parquet`, one row per sample.
+    #[serde(default)]
+    pub per_sample: bool,
+    /// Per-sample columns to keep (default: all; `sample` always).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub columns: Option<Vec<String>>,
 }
 
 fn default_precision() -> String {

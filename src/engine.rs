@@ -9,6 +9,7 @@
 
 use std::time::Instant;
 
+use glam::{DMat3, DQuat};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -312,17 +313,170 @@ fn block_lanes<T: Real, const N: usize>(
     }
 }
 
+/// Per-sample rows of one batch, column-major, in sample order (the columns
+/// of [`sample_columns`]).
+#[derive(Debug, Clone, Default)]
+pub struct SampleRows {
+    pub index: Vec<u64>,
+    pub floats: Vec<Vec<f64>>,
+    pub ints: Vec<Vec<u32>>,
+}
+
+impl SampleRows {
+    fn new(floats: usize, ints: usize) -> Self {
+        Self {
+            index: Vec::new(),
+            floats: vec![Vec::new(); floats],
+            ints: vec![Vec::new(); ints],
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// Appends `other`'s rows.
+    pub fn append(&mut self, other: &SampleRows) {
+        self.index.extend_from_slice(&other.index);
+        for (a, b) in self.floats.iter_mut().zip(&other.floats) {
+            a.extend_from_slice(b);
+        }
+        for (a, b) in self.ints.iter_mut().zip(&other.ints) {
+            a.extend_from_slice(b);
+        }
+    }
+}
+
+/// Names of the per-sample columns after `sample` (u64): the f64 columns,
+/// then the u32 columns. Units: m/s, rad/s, J, N·s; `active_LAW` is the
+/// active-set bitmask over the touching planes in scene order, `flags_LAW`
+/// the kernel status bits (see README).
+pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+    let planes: Vec<&str> = scene
+        .touching()
+        .iter()
+        .map(|&i| scene.planes()[i].name.as_str())
+        .collect();
+    let mut f: Vec<String> = [
+        "q_w",
+        "q_x",
+        "q_y",
+        "q_z",
+        "v_x",
+        "v_y",
+        "v_z",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "energy_before",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    f.extend(planes.iter().map(|p| format!("vn_before_{p}")));
+    let mut ints = Vec::new();
+    for law in scene.laws() {
+        let l = law.name();
+        f.push(format!("energy_after_{l}"));
+        f.push(format!("energy_ratio_{l}"));
+        for c in ["x", "y", "z"] {
+            f.push(format!("v_after_{c}_{l}"));
+        }
+        for c in ["x", "y", "z"] {
+            f.push(format!("omega_after_{c}_{l}"));
+        }
+        f.extend(planes.iter().map(|p| format!("impulse_{l}_{p}")));
+        f.extend(planes.iter().map(|p| format!("vn_after_{l}_{p}")));
+        ints.push(format!("active_{l}"));
+        ints.push(format!("flags_{l}"));
+    }
+    (f, ints)
+}
+
+/// Appends a block's rows (after recomputation) in the order of
+/// [`sample_columns`].
+fn push_rows<T: Real, const N: usize>(
+    work: &Work<T, N>,
+    first: u64,
+    count: usize,
+    rows: &mut SampleRows,
+) {
+    let x = &work.inputs;
+    for s in 0..count {
+        rows.index.push(first + s as u64);
+        let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
+        let q = DQuat::from_mat3(&a);
+        let q = if q.w < 0.0 { -q } else { q };
+        let mut f = rows.floats.iter_mut();
+        let mut put = |v: f64| f.next().expect("column count").push(v);
+        for v in [q.w, q.x, q.y, q.z] {
+            put(v);
+        }
+        for k in 0..3 {
+            put(x.v[k][s].to_f64());
+        }
+        for k in 0..3 {
+            put(x.w[k][s].to_f64());
+        }
+        let t0 = work.geo.t_before[s].to_f64();
+        put(t0);
+        for i in 0..N {
+            put(work.geo.vn[i][s].to_f64());
+        }
+        for out in &work.outs {
+            let t1 = out.t_after[s].to_f64();
+            put(t1);
+            put(t1 / t0);
+            for k in 0..3 {
+                put(out.v_after[k][s].to_f64());
+            }
+            for k in 0..3 {
+                put(out.w_after[k][s].to_f64());
+            }
+            for i in 0..N {
+                put(out.lambda[i][s].to_f64());
+            }
+            for i in 0..N {
+                put(out.vn_after[i][s].to_f64());
+            }
+        }
+        let mut ints = rows.ints.iter_mut();
+        for out in &work.outs {
+            let st = out.status[s];
+            ints.next()
+                .expect("column count")
+                .push((st >> ACTIVE_SHIFT) & ((1 << N) - 1));
+            ints.next().expect("column count").push(st);
+        }
+    }
+}
+
 /// One block: the lane passes, then the reference for flagged lanes, then the
 /// accumulators (scalar).
+/// What every block of a run shares.
+struct Ctx<'a, T, const N: usize> {
+    scene: &'a Scene,
+    consts: &'a Consts<T, N>,
+    sampler: &'a Sampler,
+}
+
 fn run_block<T: Real, const N: usize>(
-    scene: &Scene,
-    consts: &Consts<T, N>,
-    sampler: &Sampler,
+    ctx: &Ctx<T, N>,
     first: u64,
     count: usize,
     work: &mut Work<T, N>,
     acc: &mut RunAcc,
+    rows: Option<&mut SampleRows>,
 ) {
+    let Ctx {
+        scene,
+        consts,
+        sampler,
+    } = *ctx;
     let laws = scene.laws();
     block_lanes(
         consts,
@@ -351,6 +505,9 @@ fn run_block<T: Real, const N: usize>(
         &mut work.diff,
         acc,
     );
+    if let Some(rows) = rows {
+        push_rows(work, first, count, rows);
+    }
 }
 
 /// Accumulates every law's block results: counters, then moments and
@@ -454,43 +611,70 @@ pub struct RunOptions {
 /// Batches merged per step: bounds memory whatever the sample count.
 const BATCHES_IN_FLIGHT: u64 = 64;
 
-fn run_typed<T: Real, const N: usize>(scene: &Scene, bar: &indicatif::ProgressBar) -> RunAcc {
+/// Receives per-sample rows in sample order.
+pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), String> + Send + 'a;
+
+fn run_typed<T: Real, const N: usize>(
+    scene: &Scene,
+    bar: &indicatif::ProgressBar,
+    mut sink: Option<&mut SampleSink>,
+) -> Result<RunAcc, String> {
     let consts = Consts::<T, N>::new(scene);
     let sampler = Sampler::new(scene);
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
     let batches = total.div_ceil(batch);
+    let (nf, ni) = {
+        let (f, i) = sample_columns(scene);
+        (f.len(), i.len())
+    };
+    let want_rows = sink.is_some();
+    let ctx = Ctx {
+        scene,
+        consts: &consts,
+        sampler: &sampler,
+    };
+    // With per-sample rows in flight, fewer batches at once keep memory low.
+    let in_flight = if want_rows {
+        2 * rayon::current_num_threads() as u64
+    } else {
+        BATCHES_IN_FLIGHT
+    };
     let mut acc = RunAcc::new(laws, N);
     let mut start = 0;
     while start < batches {
-        let end = (start + BATCHES_IN_FLIGHT).min(batches);
-        let parts: Vec<RunAcc> = (start..end)
+        let end = (start + in_flight).min(batches);
+        let parts: Vec<(RunAcc, Option<SampleRows>)> = (start..end)
             .into_par_iter()
             .map_init(
                 || Work::<T, N>::new(laws),
                 |work, b| {
                     let mut part = RunAcc::new(laws, N);
+                    let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
                     let lo = b * batch;
                     let hi = (lo + batch).min(total);
                     let mut first = lo;
                     while first < hi {
                         let count = ((hi - first) as usize).min(BLOCK);
-                        run_block(scene, &consts, &sampler, first, count, work, &mut part);
+                        run_block(&ctx, first, count, work, &mut part, rows.as_mut());
                         first += BLOCK as u64;
                     }
                     part.flush();
                     bar.inc(hi - lo);
-                    part
+                    (part, rows)
                 },
             )
             .collect();
-        for p in &parts {
-            acc.merge(p);
+        for (p, rows) in parts {
+            acc.merge(&p);
+            if let (Some(sink), Some(rows)) = (sink.as_mut(), rows) {
+                sink(rows)?;
+            }
         }
         start = end;
     }
-    acc
+    Ok(acc)
 }
 
 fn cpu_seconds() -> Option<f64> {
@@ -502,8 +686,26 @@ fn cpu_seconds() -> Option<f64> {
     Some(ticks / 100.0)
 }
 
-/// Runs a scene. Errors only if the thread pool cannot be built.
-pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunResult, rayon::ThreadPoolBuildError> {
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("thread pool: {0}")]
+    Pool(#[from] rayon::ThreadPoolBuildError),
+    #[error("per-sample output: {0}")]
+    Sink(String),
+}
+
+/// Runs a scene (summary statistics only).
+pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunResult, RunError> {
+    run_with_samples(scene, opts, None)
+}
+
+/// Runs a scene and hands every sample's row, in sample order, to `sink`.
+pub fn run_with_samples(
+    scene: &Scene,
+    opts: &RunOptions,
+    sink: Option<&mut SampleSink>,
+) -> Result<RunResult, RunError> {
     let threads = if opts.threads == 0 {
         std::thread::available_parallelism()
             .map(|n| n.get())
@@ -528,14 +730,16 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunResult, rayon::ThreadP
     };
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
-    let acc = pool.install(|| match (scene.precision(), scene.touching().len()) {
-        (Precision::F32, 1) => run_typed::<f32, 1>(scene, &bar),
-        (Precision::F32, 2) => run_typed::<f32, 2>(scene, &bar),
-        (Precision::F32, _) => run_typed::<f32, 3>(scene, &bar),
-        (Precision::F64, 1) => run_typed::<f64, 1>(scene, &bar),
-        (Precision::F64, 2) => run_typed::<f64, 2>(scene, &bar),
-        (Precision::F64, _) => run_typed::<f64, 3>(scene, &bar),
-    });
+    let acc = pool
+        .install(|| match (scene.precision(), scene.touching().len()) {
+            (Precision::F32, 1) => run_typed::<f32, 1>(scene, &bar, sink),
+            (Precision::F32, 2) => run_typed::<f32, 2>(scene, &bar, sink),
+            (Precision::F32, _) => run_typed::<f32, 3>(scene, &bar, sink),
+            (Precision::F64, 1) => run_typed::<f64, 1>(scene, &bar, sink),
+            (Precision::F64, 2) => run_typed::<f64, 2>(scene, &bar, sink),
+            (Precision::F64, _) => run_typed::<f64, 3>(scene, &bar, sink),
+        })
+        .map_err(RunError::Sink)?;
     let wall_seconds = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let cpu_seconds = match (cpu0, cpu_seconds()) {

@@ -16,6 +16,7 @@ pub mod manifest;
 pub mod output;
 pub mod physics;
 pub mod sampler;
+pub mod samples;
 pub mod scene;
 pub mod stats;
 pub mod study;

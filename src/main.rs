@@ -39,6 +39,14 @@ enum Command {
     /// Run a scene's Monte Carlo study, print its summary and write the
     /// results folder.
     Run(RunArgs),
+    /// Print the manifest and summary of a finished run folder.
+    Inspect {
+        /// A folder written by `impactmc run`.
+        dir: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+    },
 }
 
 #[derive(clap::Args)]
@@ -67,6 +75,12 @@ struct RunArgs {
     /// Overwrite an output folder that already holds a run.
     #[arg(long)]
     force: bool,
+    /// Also write samples.parquet, one row per sample (streamed).
+    #[arg(long)]
+    per_sample: bool,
+    /// Per-sample columns to keep, comma-separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    columns: Option<Vec<String>>,
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
@@ -141,6 +155,8 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(DEFAULT_SCENE));
     let overrides = Overrides {
+        per_sample: args.per_sample,
+        columns: args.columns.clone(),
         samples: args.samples,
         seed: args.seed,
         laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
@@ -161,6 +177,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             threads: args.threads,
             progress: true,
         },
+        &dir,
     )
     .map_err(|e| match e {
         StudyError::Scene(e) => bad_input(e.to_string()),
@@ -169,20 +186,86 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             message: other.to_string(),
         },
     })?;
+    let text = study.text();
+    let json = study.summary_json();
     // Outputs first, so a closed stdout never costs the results.
-    study.write(&dir, None).map_err(|e| Failure {
+    study.write().map_err(|e| Failure {
         code: 1,
         message: e.to_string(),
     })?;
     match args.format {
         Format::Text => {
-            emit(&study.text());
+            emit(&text);
             emit(&format!("\nwrote {}\n", dir.display()));
         }
         Format::Json => emit(&format!(
             "{}\n",
-            serde_json::to_string_pretty(&study.summary_json()).expect("summary serialises")
+            serde_json::to_string_pretty(&json).expect("summary serialises")
         )),
+    }
+    Ok(())
+}
+
+fn inspect(dir: &std::path::Path, format: Format) -> Result<(), Failure> {
+    let read = |name: &str| -> Result<serde_json::Value, Failure> {
+        let path = dir.join(name);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            bad_input(format!(
+                "{}: {e} (not a finished impactmc run folder: manifest.json is written last)",
+                path.display()
+            ))
+        })?;
+        serde_json::from_str(&text).map_err(|e| bad_input(format!("{}: {e}", path.display())))
+    };
+    let manifest = read("manifest.json")?;
+    let summary = read("summary.json")?;
+    match format {
+        Format::Json => emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(
+                &serde_json::json!({"manifest": manifest, "summary": summary})
+            )
+            .expect("serialisable")
+        )),
+        Format::Text => {
+            let m = &manifest;
+            emit(&format!(
+                "run folder {}\n  scene {} (seed {}, {} samples per point, {} point(s))\n  impactmc {} ({}), schema {}\n  started {}, finished {}, wall {:.3} s, {} threads on {} ({})\n  files: {}\n",
+                dir.display(),
+                m["scene"]["name"].as_str().unwrap_or("?"),
+                m["seed"],
+                m["samples"],
+                m["points"],
+                m["impactmc_version"].as_str().unwrap_or("?"),
+                m["git_commit"].as_str().unwrap_or("?"),
+                m["schema_version"],
+                m["started_utc"].as_str().unwrap_or("?"),
+                m["finished_utc"].as_str().unwrap_or("?"),
+                m["wall_seconds"].as_f64().unwrap_or(f64::NAN),
+                m["threads"],
+                m["machine"]["cpu"].as_str().unwrap_or("?"),
+                m["machine"]["hostname"].as_str().unwrap_or("?"),
+                m["files"].as_array().map(|f| f.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default(),
+            ));
+            let summaries: Vec<(String, impactmc::summary::Summary)> = match summary.get("points") {
+                Some(points) => points
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|p| {
+                        let s = serde_json::from_value(p["summary"].clone()).ok()?;
+                        Some((format!("\n=== sweep point {} ===\n", p["values"]), s))
+                    })
+                    .collect(),
+                None => serde_json::from_value(summary.clone())
+                    .map(|s| vec![(String::from("\n"), s)])
+                    .map_err(|e| bad_input(format!("summary.json: {e}")))?,
+            };
+            for (head, s) in summaries {
+                emit(&head);
+                emit(&s.to_text());
+            }
+        }
     }
     Ok(())
 }
@@ -192,6 +275,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Solve { case } => solve(case),
         Command::Run(args) => run_scene(args),
+        Command::Inspect { dir, format } => inspect(dir, *format),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -174,7 +174,7 @@ fn stat_units(name: &str) -> &'static str {
     }
 }
 
-/// One (law, group) row: its statistics, fractions and their CIs.
+/// One (law, contact set) row: its statistics, fractions and their CIs.
 type Row = (
     std::collections::HashMap<String, StatSummary>,
     serde_json::Map<String, serde_json::Value>,
@@ -185,7 +185,8 @@ const STAT_FIELDS: [&str; 9] = [
     "n", "mean", "ci95", "sd", "min", "p01", "median", "p99", "max",
 ];
 
-/// `summary.parquet`: one row per (law, group). Columns `law`, `group`,
+/// `summary.parquet`: one row per (law, contact set). Columns `law`,
+/// `contact_set` (`all`, `(none)` or the `+`-joined active planes),
 /// `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
 /// group keeps no quantiles), and `fraction_FLAG` / `fraction_FLAG_ci95` on
 /// the "all" rows. Units are in the file's key-value metadata (`units`).
@@ -228,7 +229,7 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let height = rows.len();
     let mut cols = vec![
         Column::new("law".into(), law_col),
-        Column::new("group".into(), group_col),
+        Column::new("contact_set".into(), group_col),
         Column::new("samples".into(), samples),
         Column::new("impacts".into(), impacts),
     ];
@@ -273,6 +274,12 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     DataFrame::new(height, cols)
 }
 
+/// The swept values of a grid point, `(path, value)` in axis order.
+pub type PointValues = Vec<(String, f64)>;
+
+/// A grid point's accumulators per law, `(law name, accumulators)`.
+pub type LawAccs<'a> = Vec<(String, &'a crate::engine::LawAcc)>;
+
 /// The summary table of a study: [`summary_frame_one`] per grid point, with
 /// `point` and the `sweep_*` columns in front.
 pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFrame, PolarsError> {
@@ -291,12 +298,10 @@ pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFr
 }
 
 /// `histograms.parquet`: the non-empty log-linear bins of every histogram
-/// kept (law, group "all", the three headline statistics), one row per bin:
-/// `point`, `sweep_*`, `law`, `group`, `statistic`, `bin_lo`, `bin_hi`,
+/// kept (law, contact set "all", the three headline statistics), one row per
+/// bin: `point`, `sweep_*`, `law`, `contact_set`, `statistic`, `bin_lo`, `bin_hi`,
 /// `count`. Bins are [bin_lo, bin_hi); an exact zero is the bin [0, 0].
-pub fn histograms_frame(
-    points: &[(Vec<(String, f64)>, Vec<(String, &crate::engine::LawAcc)>)],
-) -> Result<DataFrame, PolarsError> {
+pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFrame, PolarsError> {
     let mut out: Option<DataFrame> = None;
     for (i, (values, laws)) in points.iter().enumerate() {
         let (mut law, mut stat, mut lo, mut hi, mut count) =
@@ -321,7 +326,7 @@ pub fn histograms_frame(
             n,
             vec![
                 Column::new("law".into(), law),
-                Column::new("group".into(), vec!["all"; n]),
+                Column::new("contact_set".into(), vec!["all"; n]),
                 Column::new("statistic".into(), stat),
                 Column::new("bin_lo".into(), lo),
                 Column::new("bin_hi".into(), hi),

@@ -499,6 +499,10 @@ impl Scene {
 /// validation so that they are validated like the file.
 #[derive(Debug, Clone, Default)]
 pub struct Overrides {
+    /// `--per-sample`: write samples.parquet.
+    pub per_sample: bool,
+    /// `--columns`: per-sample columns to keep.
+    pub columns: Option<Vec<String>>,
     pub samples: Option<u64>,
     pub seed: Option<u64>,
     pub laws: Option<Vec<String>>,
@@ -518,6 +522,13 @@ impl Overrides {
         }
         if let Some(p) = &self.precision {
             raw.precision = p.clone();
+        }
+        if self.per_sample || self.columns.is_some() {
+            let out = raw.output.get_or_insert_with(Default::default);
+            out.per_sample |= self.per_sample;
+            if let Some(c) = &self.columns {
+                out.columns = Some(c.clone());
+            }
         }
     }
 }

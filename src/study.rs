@@ -8,9 +8,12 @@ use std::time::SystemTime;
 use serde_json::json;
 
 use crate::config::RawScene;
-use crate::engine::{run, RunOptions, RunResult};
+use crate::engine::{
+    run_with_samples, sample_columns, RunError, RunOptions, RunResult, SampleRows,
+};
 use crate::manifest::{utc_string, Machine, Manifest};
 use crate::output::{histograms_frame, summary_frame, write_parquet, OutputError, Staging};
+use crate::samples::{SamplesWriter, Selection};
 use crate::scene::{Overrides, Scene, SceneError};
 use crate::summary::Summary;
 use crate::sweep::{plan, Axis};
@@ -30,32 +33,67 @@ pub struct Study {
     pub points: Vec<PointRun>,
     pub started: SystemTime,
     pub finished: SystemTime,
+    /// Rows written to samples.parquet, when asked for.
+    pub sample_rows: Option<u64>,
+    staging: Staging,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {
     #[error(transparent)]
     Scene(#[from] SceneError),
-    #[error("thread pool: {0}")]
-    Pool(#[from] rayon::ThreadPoolBuildError),
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
 }
 
-/// Validates every grid point first (so a bad point fails before any work),
-/// then runs them in order.
+/// Validates every grid point and the per-sample columns first (so bad
+/// input fails before any work), then runs the points in order, streaming
+/// per-sample rows into the staging area of `dir` when the scene asks for
+/// them.
 pub fn run_study(
     path: &Path,
     overrides: &Overrides,
     opts: &RunOptions,
+    dir: &Path,
 ) -> Result<Study, StudyError> {
     let (axes, points) = plan(path, overrides)?;
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).unwrap_or_default();
     let mut raw = Scene::parse(&file, &text)?;
     overrides.apply(&mut raw);
+    let mut staging = Staging::new(dir);
+    let output = raw.output.clone().unwrap_or_default();
+    let mut writer = if output.per_sample {
+        let (floats, ints) = sample_columns(&points[0].scene);
+        let selection =
+            Selection::new(floats, ints, output.columns.as_deref()).map_err(|m| SceneError {
+                file: file.clone(),
+                line: crate::config::line_of(&text, &["output", "columns"]),
+                field: "output.columns".into(),
+                message: m,
+            })?;
+        Some(SamplesWriter::new(
+            staging.create("samples.parquet")?,
+            selection,
+        ))
+    } else {
+        None
+    };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
-    for p in points {
-        let result = run(&p.scene, opts)?;
+    let sweep = !axes.is_empty();
+    for (i, p) in points.into_iter().enumerate() {
+        let result = match writer.as_mut() {
+            None => run_with_samples(&p.scene, opts, None)?,
+            Some(w) => {
+                let parquet = |e: polars::prelude::PolarsError| RunError::Sink(e.to_string());
+                w.set_point(sweep.then_some(i as u32)).map_err(parquet)?;
+                let mut sink = |rows: SampleRows| w.push(rows).map_err(|e| e.to_string());
+                run_with_samples(&p.scene, opts, Some(&mut sink))?
+            }
+        };
         let summary = Summary::new(&p.scene, &result);
         runs.push(PointRun {
             values: p.values,
@@ -64,12 +102,18 @@ pub fn run_study(
             summary,
         });
     }
+    let sample_rows = match writer {
+        Some(w) => Some(w.finish().map_err(|e| RunError::Sink(e.to_string()))?),
+        None => None,
+    };
     Ok(Study {
         raw,
         axes,
         points: runs,
         started,
         finished: SystemTime::now(),
+        sample_rows,
+        staging,
     })
 }
 
@@ -114,9 +158,12 @@ impl Study {
     }
 
     /// Writes the run folder: summary.parquet, histograms.parquet,
-    /// summary.json and manifest.json (last), all renamed together.
-    pub fn write(&self, dir: &Path, extra: Option<PathBuf>) -> Result<Vec<PathBuf>, OutputError> {
-        let mut staging = Staging::new(dir);
+    /// summary.json, samples.parquet (already streamed) and manifest.json
+    /// (last), all renamed together.
+    pub fn write(mut self) -> Result<Vec<PathBuf>, OutputError> {
+        let dir = self.staging.dir().to_path_buf();
+        let mut staging = std::mem::replace(&mut self.staging, Staging::new(&dir));
+        let dir = dir.as_path();
         let first = &self.points[0].summary;
         let summaries: Vec<(Vec<(String, f64)>, &Summary)> = self
             .points
@@ -161,8 +208,8 @@ impl Study {
             "histograms.parquet".into(),
             "summary.json".into(),
         ];
-        if let Some(extra) = extra {
-            files.push(extra.display().to_string());
+        if self.sample_rows.is_some() {
+            files.push("samples.parquet".into());
         }
         let manifest = Manifest {
             schema_version: crate::SCHEMA_VERSION,

@@ -67,6 +67,7 @@ fn same_seed_same_summary_for_1_and_2_threads() {
                 seed: Some(43),
                 precision: Some(precision.into()),
                 laws: Some(vec!["newton".into(), "paper".into(), "pgs4".into()]),
+                ..Overrides::default()
             },
         );
         assert_ne!(without_timing(&one), without_timing(&summary(&other, 2)));
@@ -166,6 +167,7 @@ fn floor_scene_agrees_with_independent_reference_statistics() {
                 seed: Some(2026),
                 precision: Some(precision.into()),
                 laws: Some(vec!["paper".into(), "newton".into(), "poisson".into()]),
+                ..Overrides::default()
             },
         );
         let sum = summary(&s, 0);

@@ -1,0 +1,123 @@
+//! Every output file read by the tools analysts use (pyarrow, DuckDB and
+//! polars for Python; pinned in .ci/requirements-readers.txt and installed by
+//! .ci/run): schemas, row counts, and the Newton energy-ratio mean equal to
+//! what the run printed.
+//!
+//! Without the Python readers the test says so and passes, unless
+//! `IMPACTMC_REQUIRE_READERS=1` (set by .ci/run), where it fails.
+
+use std::path::Path;
+use std::process::Command;
+
+fn readers_available() -> bool {
+    Command::new("python3")
+        .args(["-c", "import pyarrow, duckdb, polars"])
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false)
+}
+
+#[test]
+fn python_readers_agree_with_the_run() {
+    if !readers_available() {
+        assert!(
+            std::env::var("IMPACTMC_REQUIRE_READERS").is_err(),
+            "pyarrow, duckdb and polars are required (pip install -r .ci/requirements-readers.txt)"
+        );
+        eprintln!(
+            "SKIPPED: Python readers not installed (pip install -r .ci/requirements-readers.txt)"
+        );
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("impactmc-readers-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let samples = 50_000u64;
+    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+        .args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
+            "--samples",
+            &samples.to_string(),
+            "--law",
+            "newton",
+            "--law",
+            "paper",
+            "--per-sample",
+            "--format",
+            "json",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mean = printed["laws"]["newton"]["groups"]["all"]["stats"]["energy_ratio"]["mean"].clone();
+    // Rows: one per (law, group present) in the summary; one per sample.
+    let groups = |law: &str| printed["laws"][law]["groups"].as_object().unwrap().len();
+    let summary_rows = groups("newton") + groups("paper");
+    let expected = serde_json::json!({
+        "files": {
+            "summary.parquet": {"rows": summary_rows, "columns": [
+                "point", "law", "contact_set", "samples", "impacts",
+                "energy_ratio_mean", "energy_ratio_ci95", "energy_ratio_sd", "energy_ratio_min",
+                "energy_ratio_p01", "energy_ratio_median", "energy_ratio_p99", "energy_ratio_max",
+                "omega_after_norm_mean", "velocity_after_norm_mean", "fraction_energy_gain"]},
+            "samples.parquet": {"rows": samples, "columns": [
+                "sample", "q_w", "q_x", "q_y", "q_z", "v_x", "v_y", "v_z", "omega_x", "omega_y", "omega_z",
+                "energy_before", "energy_ratio_newton", "impulse_newton_wall_x", "flags_paper"]},
+        },
+        "value": {"file": "summary.parquet", "column": "energy_ratio_mean",
+                  "where": {"law": "newton", "contact_set": "all"}, "equals": mean},
+    });
+    let exp_path = dir.join("expected.json");
+    std::fs::write(&exp_path, expected.to_string()).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/check_outputs.py");
+    let check = Command::new("python3")
+        .arg(&script)
+        .arg(&dir)
+        .arg(&exp_path)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success(),
+        "{report}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    // histograms.parquet: its counts must add up, per law and statistic, to
+    // the impacting samples the run printed.
+    let hist = Command::new("python3")
+        .args([
+            "-c",
+            "import sys, duckdb; print(duckdb.connect().execute(\"SELECT law, statistic, sum(count) FROM read_parquet('\" + sys.argv[1] + \"') GROUP BY ALL ORDER BY ALL\").fetchall())",
+        ])
+        .arg(dir.join("histograms.parquet"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&hist.stdout);
+    for law in ["newton", "paper"] {
+        let impacts = printed["laws"][law]["groups"]["all"]["impacts"]
+            .as_u64()
+            .unwrap();
+        for stat in ["energy_ratio", "omega_after_norm", "velocity_after_norm"] {
+            let needle = format!("('{law}', '{stat}', {impacts})");
+            assert!(
+                text.contains(&needle),
+                "histogram counts: {text} lacks {needle}"
+            );
+        }
+    }
+    // The manifest and summary.json are JSON a script can read.
+    for f in ["manifest.json", "summary.json"] {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join(f)).unwrap()).unwrap();
+        assert!(v.is_object(), "{f}");
+    }
+    eprintln!("{report}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
