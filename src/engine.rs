@@ -21,16 +21,16 @@ use crate::lanes::Real;
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler, BLOCK};
 use crate::scene::{Precision, Scene};
-use crate::stats::{Moments, Stat};
+use crate::stats::{LogHistogram, Moments, Stat};
 
 /// Statistics of the samples in one active-contact set.
 #[derive(Debug, Clone, Default)]
 pub struct GroupAcc {
     pub samples: u64,
     pub impacts: u64,
-    pub energy_ratio: Moments,
-    pub omega_after_norm: Moments,
-    pub velocity_after_norm: Moments,
+    pub energy_ratio: Stat,
+    pub omega_after_norm: Stat,
+    pub velocity_after_norm: Stat,
 }
 
 /// Everything accumulated for one law.
@@ -46,7 +46,9 @@ pub struct LawAcc {
     pub penetrating: u64,
     /// Counts per active set (bit i: touching plane i took λ > 0), all samples.
     pub active_sets: Vec<u64>,
-    /// Over impacting samples.
+    /// Over impacting samples. Their histograms are filled per contact set
+    /// (each impacting sample is in exactly one) and summed into these by
+    /// [`RunAcc::finish`].
     pub energy_ratio: Stat,
     pub omega_after_norm: Stat,
     pub velocity_after_norm: Stat,
@@ -164,6 +166,20 @@ impl RunAcc {
             p.energy_ratio.flush();
             p.omega_after_norm.flush();
             p.velocity_after_norm.flush();
+        }
+    }
+
+    /// Completes a run's accumulators: the "all" histograms are the sums of
+    /// the contact sets' (in set order).
+    pub fn finish(&mut self) {
+        for l in &mut self.laws {
+            for g in &l.groups {
+                l.energy_ratio.hist.merge(&g.energy_ratio.hist);
+                l.omega_after_norm.hist.merge(&g.omega_after_norm.hist);
+                l.velocity_after_norm
+                    .hist
+                    .merge(&g.velocity_after_norm.hist);
+            }
         }
     }
 
@@ -510,6 +526,16 @@ fn run_block<T: Real, const N: usize>(
     }
 }
 
+/// Headline statistic `k` (0 energy ratio, 1 |ω⁺|, 2 |v⁺|) of a contact set.
+#[inline(always)]
+fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
+    match k {
+        0 => &mut g.energy_ratio,
+        1 => &mut g.omega_after_norm,
+        _ => &mut g.velocity_after_norm,
+    }
+}
+
 /// Accumulates every law's block results: counters, then moments and
 /// histograms as masked vector passes. Compiled like `block_lanes`.
 #[multiversion(targets(
@@ -525,6 +551,7 @@ fn block_stats<T: Real, const N: usize>(
     diff: &mut [f64; BLOCK],
     acc: &mut RunAcc,
 ) {
+    let mut bins = [0u16; BLOCK];
     for li in 0..outs.len() {
         let la = &mut acc.laws[li];
         let out = &outs[li];
@@ -546,9 +573,15 @@ fn block_stats<T: Real, const N: usize>(
             }
             la.impacts += (d.impacting[s] > 0.0) as u64;
         }
-        la.energy_ratio.push_weighted(&d.ratio, &d.impacting);
-        la.omega_after_norm.push_weighted(&d.omega, &d.impacting);
-        la.velocity_after_norm.push_weighted(&d.speed, &d.impacting);
+        la.energy_ratio
+            .moments
+            .push_weighted(&d.ratio, &d.impacting);
+        la.omega_after_norm
+            .moments
+            .push_weighted(&d.omega, &d.impacting);
+        la.velocity_after_norm
+            .moments
+            .push_weighted(&d.speed, &d.impacting);
         for i in 0..N {
             la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
             la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
@@ -563,9 +596,26 @@ fn block_stats<T: Real, const N: usize>(
             }
             if hits > 0 {
                 g.impacts += hits as u64;
-                g.energy_ratio.push_weighted(&d.ratio, &d.mask);
-                g.omega_after_norm.push_weighted(&d.omega, &d.mask);
-                g.velocity_after_norm.push_weighted(&d.speed, &d.mask);
+                g.energy_ratio.moments.push_weighted(&d.ratio, &d.mask);
+                g.omega_after_norm.moments.push_weighted(&d.omega, &d.mask);
+                g.velocity_after_norm
+                    .moments
+                    .push_weighted(&d.speed, &d.mask);
+            }
+        }
+        // Histograms: bins computed once per statistic (vectorised), each
+        // impacting sample counted in its own contact set's histogram.
+        for k in 0..3 {
+            let xs = [&d.ratio, &d.omega, &d.speed][k];
+            for s in 0..BLOCK {
+                bins[s] = LogHistogram::bin(xs[s]);
+            }
+            for s in 0..BLOCK {
+                if d.impacting[s] > 0.0 {
+                    group_stat(&mut la.groups[d.active[s] as usize], k)
+                        .hist
+                        .add(bins[s], xs[s]);
+                }
             }
         }
         if li == 0 {
@@ -674,6 +724,7 @@ fn run_typed<T: Real, const N: usize>(
         }
         start = end;
     }
+    acc.finish();
     Ok(acc)
 }
 

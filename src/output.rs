@@ -43,6 +43,20 @@ pub fn prepare_dir(dir: &Path, force: bool) -> Result<(), OutputError> {
     if !force && dir.join("manifest.json").exists() {
         return Err(OutputError::Exists(dir.display().to_string()));
     }
+    // Temporary files of killed runs (their process is gone) are removed.
+    if let Ok(entries) = fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            if let Some(pid) = name
+                .rsplit_once(".partial-")
+                .and_then(|(_, p)| p.parse::<u32>().ok())
+            {
+                if name.starts_with('.') && !Path::new(&format!("/proc/{pid}")).exists() {
+                    let _ = fs::remove_file(e.path());
+                }
+            }
+        }
+    }
     let probe = dir.join(".impactmc-write-probe");
     fs::write(&probe, b"").map_err(io(dir))?;
     fs::remove_file(&probe).map_err(io(dir))?;

@@ -142,6 +142,8 @@ impl SamplesWriter {
             let file = self.file.take().expect("file until the first row group");
             self.writer = Some(
                 ParquetWriter::new(file)
+                    // Encoding, not compression, dominates the cost here:
+                    // uncompressed is only about 20 % faster.
                     .with_compression(ParquetCompression::Zstd(None))
                     .batched(df.schema())?,
             );

@@ -244,7 +244,7 @@ impl Scene {
                 ))
             }
         };
-        let batch_size = raw.batch_size.unwrap_or(1 << 14);
+        let batch_size = raw.batch_size.unwrap_or(65536);
         if !(batch_size.is_power_of_two() && (256..=1 << 22).contains(&batch_size)) {
             return Err(bad(
                 &["batch_size"],

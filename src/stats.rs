@@ -191,8 +191,8 @@ impl Moments {
 }
 
 /// Log-linear histogram of signed values: 64 bins per octave over
-/// |x| ∈ [2^-32, 2^32), plus an exact-zero count. The negative half is
-/// allocated on first use.
+/// |x| ∈ [2^-32, 2^32), plus an exact-zero count. Both halves are
+/// allocated on first use, so empty histograms cost nothing to merge.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LogHistogram {
     pos: Vec<u64>,
@@ -203,7 +203,7 @@ pub struct LogHistogram {
 impl Default for LogHistogram {
     fn default() -> Self {
         Self {
-            pos: vec![0; BINS],
+            pos: Vec::new(),
             neg: Vec::new(),
             zero: 0,
         }
@@ -235,6 +235,12 @@ impl LogHistogram {
     /// [`Self::push`].
     #[inline(always)]
     pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+        if self.pos.is_empty() {
+            if !w.iter().any(|&x| x > 0.0) {
+                return;
+            }
+            self.pos = vec![0; BINS];
+        }
         let mut idx = [0u16; B];
         let mut other = false;
         for k in 0..B {
@@ -253,9 +259,32 @@ impl LogHistogram {
         }
     }
 
+    /// Bin index of a positive value (for [`Self::add_positive`]).
+    #[inline(always)]
+    pub fn bin(x: f64) -> u16 {
+        bin_of(x.abs()) as u16
+    }
+
+    /// Counts a value whose bin `b` was computed by [`Self::bin`]: the fast
+    /// path for positive values, [`Self::push`] otherwise.
+    #[inline(always)]
+    pub fn add(&mut self, b: u16, x: f64) {
+        if x > 0.0 {
+            if self.pos.is_empty() {
+                self.pos = vec![0; BINS];
+            }
+            self.pos[b as usize] += 1;
+        } else {
+            self.push(x);
+        }
+    }
+
     #[inline]
     pub fn push(&mut self, x: f64) {
         if x > 0.0 {
+            if self.pos.is_empty() {
+                self.pos = vec![0; BINS];
+            }
             self.pos[bin_of(x)] += 1;
         } else if x < 0.0 {
             if self.neg.is_empty() {
@@ -268,8 +297,13 @@ impl LogHistogram {
     }
 
     pub fn merge(&mut self, o: &LogHistogram) {
-        for (a, b) in self.pos.iter_mut().zip(&o.pos) {
-            *a += b;
+        if !o.pos.is_empty() {
+            if self.pos.is_empty() {
+                self.pos = vec![0; BINS];
+            }
+            for (a, b) in self.pos.iter_mut().zip(&o.pos) {
+                *a += b;
+            }
         }
         if !o.neg.is_empty() {
             if self.neg.is_empty() {
@@ -299,7 +333,7 @@ impl LogHistogram {
         if self.zero > 0 {
             out.push((0.0, 0.0, self.zero));
         }
-        for b in 0..BINS {
+        for b in 0..self.pos.len() {
             if self.pos[b] > 0 {
                 let (lo, hi) = bin_edges(b);
                 out.push((lo, hi, self.pos[b]));

@@ -186,15 +186,15 @@ fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
         let mut s = Map::new();
         s.insert(
             "energy_ratio".into(),
-            json(&StatSummary::from_moments(&g.energy_ratio)),
+            json(&StatSummary::from_stat(&g.energy_ratio)),
         );
         s.insert(
             "omega_after_norm".into(),
-            json(&StatSummary::from_moments(&g.omega_after_norm)),
+            json(&StatSummary::from_stat(&g.omega_after_norm)),
         );
         s.insert(
             "velocity_after_norm".into(),
-            json(&StatSummary::from_moments(&g.velocity_after_norm)),
+            json(&StatSummary::from_stat(&g.velocity_after_norm)),
         );
         let name = active_set_name(mask, contacts);
         let key = if name.is_empty() {

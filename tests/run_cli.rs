@@ -146,3 +146,86 @@ fn output_folder_rules_and_json_summary() {
         "{err}"
     );
 }
+
+#[test]
+fn a_killed_run_leaves_no_file_that_looks_complete() {
+    let d = tmpdir("killed");
+    let out_dir = d.join("res");
+    let mut child = bin()
+        .args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
+            "--samples",
+            "500000000",
+            "--per-sample",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the run is writing (its temporary samples file exists).
+    let started = std::time::Instant::now();
+    let names = |dir: &Path| -> Vec<String> {
+        std::fs::read_dir(dir)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.file_name().to_string_lossy().to_string())
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    while !names(&out_dir).iter().any(|n| n.contains(".partial-")) {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "the run never started writing"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let left = names(&out_dir);
+    for complete in [
+        "summary.parquet",
+        "histograms.parquet",
+        "samples.parquet",
+        "summary.json",
+        "manifest.json",
+    ] {
+        assert!(
+            !left.contains(&complete.to_string()),
+            "{complete} exists after a kill: {left:?}"
+        );
+    }
+    assert!(
+        left.iter()
+            .all(|n| n.starts_with('.') && n.contains(".partial-")),
+        "{left:?}"
+    );
+    // The next run into the folder is not refused (nothing completed) and
+    // clears the dead run's temporary files.
+    let ok = bin()
+        .args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
+            "--samples",
+            "1000",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert!(
+        names(&out_dir).iter().all(|n| !n.contains(".partial-")),
+        "{:?}",
+        names(&out_dir)
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
