@@ -193,21 +193,11 @@ impl Moments {
 /// Log-linear histogram of signed values: 64 bins per octave over
 /// |x| ∈ [2^-32, 2^32), plus an exact-zero count. Both halves are
 /// allocated on first use, so empty histograms cost nothing to merge.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct LogHistogram {
     pos: Vec<u64>,
     neg: Vec<u64>,
     zero: u64,
-}
-
-impl Default for LogHistogram {
-    fn default() -> Self {
-        Self {
-            pos: Vec::new(),
-            neg: Vec::new(),
-            zero: 0,
-        }
-    }
 }
 
 #[inline(always)]
