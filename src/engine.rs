@@ -52,12 +52,10 @@ pub struct LawAcc {
     pub energy_ratio: Stat,
     pub omega_after_norm: Stat,
     pub velocity_after_norm: Stat,
-    /// Per touching plane, over impacting samples (zeros included); moments
-    /// only (quantiles are kept for the three headline statistics).
-    pub impulse: Vec<Moments>,
-    /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached
-    /// (moments only: for Newton it is exactly k).
-    pub rebound: Vec<Moments>,
+    /// Per touching plane, over impacting samples (zeros included).
+    pub impulse: Vec<Stat>,
+    /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached.
+    pub rebound: Vec<Stat>,
     /// Per active set: moments of the three post-impact statistics.
     pub groups: Vec<GroupAcc>,
 }
@@ -92,8 +90,8 @@ impl LawAcc {
             energy_ratio: Stat::default(),
             omega_after_norm: Stat::default(),
             velocity_after_norm: Stat::default(),
-            impulse: vec![Moments::default(); contacts],
-            rebound: vec![Moments::default(); contacts],
+            impulse: vec![Stat::default(); contacts],
+            rebound: vec![Stat::default(); contacts],
             groups: vec![GroupAcc::default(); 1 << contacts],
         }
     }

@@ -291,8 +291,9 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
 /// The swept values of a grid point, `(path, value)` in axis order.
 pub type PointValues = Vec<(String, f64)>;
 
-/// A grid point's accumulators per law, `(law name, accumulators)`.
-pub type LawAccs<'a> = Vec<(String, &'a crate::engine::LawAcc)>;
+/// A grid point's accumulators per law: (law name, touching plane names,
+/// accumulators).
+pub type LawAccs<'a> = Vec<(String, Vec<String>, &'a crate::engine::LawAcc)>;
 
 /// The summary table of a study: [`summary_frame_one`] per grid point, with
 /// `point` and the `sweep_*` columns in front.
@@ -312,25 +313,70 @@ pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFr
 }
 
 /// `histograms.parquet`: the non-empty log-linear bins of every histogram
-/// kept (law, contact set "all", the three headline statistics), one row per
-/// bin: `point`, `sweep_*`, `law`, `contact_set`, `statistic`, `bin_lo`, `bin_hi`,
+/// kept (every statistic over all samples; the three headline statistics
+/// per contact set), one row per bin: `point`, `sweep_*`, `law`, `contact_set`, `statistic`, `bin_lo`, `bin_hi`,
 /// `count`. Bins are [bin_lo, bin_hi); an exact zero is the bin [0, 0].
 pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFrame, PolarsError> {
     let mut out: Option<DataFrame> = None;
     for (i, (values, laws)) in points.iter().enumerate() {
-        let (mut law, mut stat, mut lo, mut hi, mut count) =
-            (vec![], vec![], vec![], vec![], vec![]);
-        for (name, acc) in laws {
-            for (sname, st) in [
-                ("energy_ratio", &acc.energy_ratio),
-                ("omega_after_norm", &acc.omega_after_norm),
-                ("velocity_after_norm", &acc.velocity_after_norm),
-            ] {
-                for (l, h, c) in st.hist.bins() {
+        let (mut law, mut set, mut stat, mut lo, mut hi, mut count) =
+            (vec![], vec![], vec![], vec![], vec![], vec![]);
+        for (name, contacts, acc) in laws {
+            let mut hists: Vec<(String, String, &crate::stats::LogHistogram)> = vec![
+                ("all".into(), "energy_ratio".into(), &acc.energy_ratio.hist),
+                (
+                    "all".into(),
+                    "omega_after_norm".into(),
+                    &acc.omega_after_norm.hist,
+                ),
+                (
+                    "all".into(),
+                    "velocity_after_norm".into(),
+                    &acc.velocity_after_norm.hist,
+                ),
+            ];
+            for (i, plane) in contacts.iter().enumerate() {
+                hists.push((
+                    "all".into(),
+                    format!("impulse_{plane}"),
+                    &acc.impulse[i].hist,
+                ));
+                hists.push((
+                    "all".into(),
+                    format!("rebound_{plane}"),
+                    &acc.rebound[i].hist,
+                ));
+            }
+            for (mask, g) in acc.groups.iter().enumerate() {
+                let set_name = crate::summary::active_set_name(mask, contacts);
+                let set_name = if set_name.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    set_name
+                };
+                hists.push((
+                    set_name.clone(),
+                    "energy_ratio".into(),
+                    &g.energy_ratio.hist,
+                ));
+                hists.push((
+                    set_name.clone(),
+                    "omega_after_norm".into(),
+                    &g.omega_after_norm.hist,
+                ));
+                hists.push((
+                    set_name,
+                    "velocity_after_norm".into(),
+                    &g.velocity_after_norm.hist,
+                ));
+            }
+            for (set_name, stat_name, h) in hists {
+                for (l, hb, c) in h.bins() {
                     law.push(name.clone());
-                    stat.push(sname.to_string());
+                    set.push(set_name.clone());
+                    stat.push(stat_name.clone());
                     lo.push(l);
-                    hi.push(h);
+                    hi.push(hb);
                     count.push(c);
                 }
             }
@@ -340,7 +386,7 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
             n,
             vec![
                 Column::new("law".into(), law),
-                Column::new("contact_set".into(), vec!["all"; n]),
+                Column::new("contact_set".into(), set),
                 Column::new("statistic".into(), stat),
                 Column::new("bin_lo".into(), lo),
                 Column::new("bin_hi".into(), hi),

@@ -190,7 +190,7 @@ impl Study {
                     .laws()
                     .iter()
                     .zip(&p.result.acc.laws)
-                    .map(|(l, a)| (l.name(), a))
+                    .map(|(l, a)| (l.name(), p.summary.contacts.clone(), a))
                     .collect::<Vec<_>>();
                 (p.values.clone(), laws)
             })

@@ -138,11 +138,11 @@ fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
     for (i, name) in contacts.iter().enumerate() {
         stats.insert(
             format!("impulse_{name}"),
-            json(&StatSummary::from_moments(&acc.impulse[i])),
+            json(&StatSummary::from_stat(&acc.impulse[i])),
         );
         stats.insert(
             format!("rebound_{name}"),
-            json(&StatSummary::from_moments(&acc.rebound[i])),
+            json(&StatSummary::from_stat(&acc.rebound[i])),
         );
     }
     let mut fractions = Map::new();

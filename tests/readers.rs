@@ -67,6 +67,8 @@ fn python_readers_agree_with_the_run() {
                 "energy_ratio_mean", "energy_ratio_ci95", "energy_ratio_sd", "energy_ratio_min",
                 "energy_ratio_p01", "energy_ratio_median", "energy_ratio_p99", "energy_ratio_max",
                 "omega_after_norm_mean", "velocity_after_norm_mean", "fraction_energy_gain"]},
+            "histograms.parquet": {"rows": null, "columns": [
+                "point", "law", "contact_set", "statistic", "bin_lo", "bin_hi", "count"]},
             "samples.parquet": {"rows": samples, "columns": [
                 "sample", "q_w", "q_x", "q_y", "q_z", "v_x", "v_y", "v_z", "omega_x", "omega_y", "omega_z",
                 "energy_before", "energy_ratio_newton", "impulse_newton_wall_x", "flags_paper"]},
@@ -94,7 +96,7 @@ fn python_readers_agree_with_the_run() {
     let hist = Command::new("python3")
         .args([
             "-c",
-            "import sys, duckdb; print(duckdb.connect().execute(\"SELECT law, statistic, sum(count) FROM read_parquet('\" + sys.argv[1] + \"') GROUP BY ALL ORDER BY ALL\").fetchall())",
+            "import sys, duckdb; print(duckdb.connect().execute(\"SELECT law, statistic, sum(count) FROM read_parquet('\" + sys.argv[1] + \"') WHERE contact_set = 'all' GROUP BY ALL ORDER BY ALL\").fetchall())",
         ])
         .arg(dir.join("histograms.parquet"))
         .output()
@@ -111,6 +113,28 @@ fn python_readers_agree_with_the_run() {
                 "histogram counts: {text} lacks {needle}"
             );
         }
+    }
+    // Per contact set, the energy-ratio histogram counts add up to the set's
+    // impacting samples.
+    let per_set = Command::new("python3")
+        .args([
+            "-c",
+            "import sys, duckdb; print(dict(duckdb.connect().execute(\"SELECT contact_set, sum(count)::BIGINT FROM read_parquet('\" + sys.argv[1] + \"') WHERE law = 'newton' AND statistic = 'energy_ratio' AND contact_set <> 'all' GROUP BY ALL\").fetchall()))",
+        ])
+        .arg(dir.join("histograms.parquet"))
+        .output()
+        .unwrap();
+    let per_set = String::from_utf8_lossy(&per_set.stdout);
+    for (set, g) in printed["laws"]["newton"]["groups"].as_object().unwrap() {
+        let impacts = g["impacts"].as_u64().unwrap();
+        if set == "all" || impacts == 0 {
+            continue;
+        }
+        let needle = format!("'{set}': {impacts}");
+        assert!(
+            per_set.contains(&needle),
+            "per-set histogram counts {per_set} lack {needle}"
+        );
     }
     // The manifest and summary.json are JSON a script can read.
     for f in ["manifest.json", "summary.json"] {
