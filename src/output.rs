@@ -298,9 +298,20 @@ pub type LawAccs<'a> = Vec<(String, Vec<String>, &'a crate::engine::LawAcc)>;
 /// The summary table of a study: [`summary_frame_one`] per grid point, with
 /// `point` and the `sweep_*` columns in front.
 pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFrame, PolarsError> {
+    stack_points(
+        points.iter().enumerate().map(|(i, (values, summary))| {
+            with_point_columns(summary_frame_one(summary)?, i, values)
+        }),
+    )
+}
+
+/// Stacks the frames of the grid points, in point order.
+fn stack_points(
+    frames: impl Iterator<Item = Result<DataFrame, PolarsError>>,
+) -> Result<DataFrame, PolarsError> {
     let mut out: Option<DataFrame> = None;
-    for (i, (values, summary)) in points.iter().enumerate() {
-        let df = with_point_columns(summary_frame_one(summary)?, i, values)?;
+    for df in frames {
+        let df = df?;
         out = Some(match out {
             None => df,
             Some(mut acc) => {
@@ -317,8 +328,7 @@ pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFr
 /// per contact set), one row per bin: `point`, `sweep_*`, `law`, `contact_set`, `statistic`, `bin_lo`, `bin_hi`,
 /// `count`. Bins are [bin_lo, bin_hi); an exact zero is the bin [0, 0].
 pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFrame, PolarsError> {
-    let mut out: Option<DataFrame> = None;
-    for (i, (values, laws)) in points.iter().enumerate() {
+    stack_points(points.iter().enumerate().map(|(i, (values, laws))| {
         let (mut law, mut set, mut stat, mut lo, mut hi, mut count) =
             (vec![], vec![], vec![], vec![], vec![], vec![]);
         for (name, contacts, acc) in laws {
@@ -393,16 +403,8 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
                 Column::new("count".into(), count),
             ],
         )?;
-        let df = with_point_columns(df, i, values)?;
-        out = Some(match out {
-            None => df,
-            Some(mut acc) => {
-                acc.vstack_mut(&df)?;
-                acc
-            }
-        });
-    }
-    out.ok_or_else(|| PolarsError::ComputeError("a study has at least one point".into()))
+        with_point_columns(df, i, values)
+    }))
 }
 
 /// Key-value metadata: units of every statistic and the schema version.

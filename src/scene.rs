@@ -150,19 +150,6 @@ fn vector_dist(field: &str, raw: &RawVector) -> Result<VectorDist, Bad> {
 }
 
 impl Scene {
-    /// Reads, parses and validates a scene file.
-    pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-            file: file.clone(),
-            line: None,
-            field: "(file)".into(),
-            message: e.to_string(),
-        })?;
-        let raw = Self::parse(&file, &text)?;
-        Self::validate(&file, &text, raw)
-    }
-
     /// Parses scene text into its raw form; a syntax or type error names the
     /// line.
     pub fn parse(file: &str, text: &str) -> Result<RawScene, SceneError> {

@@ -64,7 +64,8 @@ pub fn run_study(
     let mut raw = Scene::parse(&file, &text)?;
     overrides.apply(&mut raw);
     let mut staging = Staging::new(dir);
-    let output = raw.output.clone().unwrap_or_default();
+    // Every default explicit in the manifest.
+    let output = raw.output.get_or_insert_with(Default::default).clone();
     let mut writer = if output.per_sample {
         let (floats, ints) = sample_columns(&points[0].scene);
         let selection =
