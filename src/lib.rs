@@ -19,6 +19,7 @@ pub mod sampler;
 pub mod samples;
 pub mod scene;
 pub mod stats;
+pub mod stress;
 pub mod study;
 pub mod summary;
 pub mod sweep;

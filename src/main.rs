@@ -39,6 +39,12 @@ enum Command {
     /// Run a scene's Monte Carlo study, print its summary and write the
     /// results folder.
     Run(RunArgs),
+    /// Run the hard-case families (stability suite) and print the table.
+    Stress {
+        /// Samples per case.
+        #[arg(long, default_value_t = 4096)]
+        samples: usize,
+    },
     /// Print the manifest and summary of a finished run folder.
     Inspect {
         /// A folder written by `impactmc run`.
@@ -276,6 +282,25 @@ fn main() -> ExitCode {
         Command::Solve { case } => solve(case),
         Command::Run(args) => run_scene(args),
         Command::Inspect { dir, format } => inspect(dir, *format),
+        Command::Stress { samples } => {
+            let rows = impactmc::stress::run(*samples);
+            emit(&impactmc::stress::table(&rows));
+            let bad = rows.iter().filter(|r| !r.within_bound()).count();
+            emit(&format!(
+                "\n{} rows, {} beyond their bound; matrix → Bryan → matrix worst error near θ = ±90°: {:.1e}\n",
+                rows.len(),
+                bad,
+                impactmc::stress::gimbal_round_trip_error()
+            ));
+            if bad > 0 {
+                Err(Failure {
+                    code: 1,
+                    message: format!("{bad} stress rows beyond their bound"),
+                })
+            } else {
+                Ok(())
+            }
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -467,18 +467,38 @@ impl Scene {
     }
 
     /// Centre of the body for rotation `a` (body → world), placed so that the
-    /// touching planes touch.
+    /// touching planes touch. With nearly dependent normals the placement
+    /// solve amplifies rounding (by 1/λ_min of the normals' Gram matrix), so
+    /// one step of iterative refinement on the residuals `h_i − e_i − n_i·X0`
+    /// brings the distances back to rounding level.
     pub fn centre(&self, a: DMat3) -> DVec3 {
-        self.touching
+        let targets: Vec<f64> = self
+            .touching
             .iter()
-            .zip(&self.placement)
-            .map(|(&i, col)| {
+            .map(|&i| {
                 let p = &self.planes[i].plane;
                 let u = a.transpose() * p.normal();
-                let h = (self.body.semi_axes() * u).length();
-                *col * (h - p.offset())
+                (self.body.semi_axes() * u).length() - p.offset()
             })
-            .sum()
+            .collect();
+        let solve = |rhs: &[f64]| -> DVec3 {
+            self.placement
+                .iter()
+                .zip(rhs)
+                .map(|(col, r)| *col * *r)
+                .sum()
+        };
+        let mut x = solve(&targets);
+        for _ in 0..2 {
+            let residual: Vec<f64> = self
+                .touching
+                .iter()
+                .zip(&targets)
+                .map(|(&i, t)| t - self.planes[i].plane.normal().dot(x))
+                .collect();
+            x += solve(&residual);
+        }
+        x
     }
 }
 
