@@ -237,7 +237,38 @@ impl Case {
             self.tolerance,
         )
         .map_err(|e| FieldError::new("planes", e.to_string()))?;
-        Ok(CaseOutput::new(self, &outcome))
+        let out = CaseOutput::new(self, &outcome);
+        // Finite inputs can still overflow f64 (a velocity of 1e308 squares to
+        // infinity; a subnormal mass has an infinite inverse). Such a case is
+        // refused, never answered with inf or NaN.
+        let finite = out
+            .velocity
+            .iter()
+            .chain(&out.angular_velocity)
+            .all(|x| x.is_finite())
+            && out.energy_before.is_finite()
+            && out.energy_after.is_finite()
+            && out.contacts.iter().all(|c| {
+                c.point.iter().all(|x| x.is_finite())
+                    && c.distance.is_finite()
+                    && c.impulse.is_finite()
+                    && c.normal_velocity_before.is_finite()
+                    && c.normal_velocity_after.is_finite()
+            });
+        if !finite {
+            return Err(FieldError::new(
+                "(case)",
+                format!(
+                    "the result overflows f64: mass {}, semi-axes {:?}, |v| {:e}, |ω| {:e}, |position| {:e} are too extreme together",
+                    self.body.mass(),
+                    self.body.semi_axes().to_array(),
+                    self.state.velocity.length(),
+                    self.state.omega.length(),
+                    self.pose.centre.length()
+                ),
+            ));
+        }
+        Ok(out)
     }
 }
 

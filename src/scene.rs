@@ -330,6 +330,7 @@ impl Scene {
         };
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
+        Self::check_ranges(&body, precision, velocity, angular_velocity, length_scale)?;
         // Every default made explicit, for the manifest.
         let mut raw = raw;
         raw.contact_tolerance = Some(tolerance);
@@ -351,6 +352,70 @@ impl Scene {
             angular_velocity,
             raw,
         })
+    }
+
+    /// Refuses scenes whose quantities overflow or underflow the kernel's
+    /// float type: every derived constant (m, 1/m, J, 1/J, a², lengths) and a
+    /// generous kinetic-energy scale must be normal numbers, with three
+    /// decades of headroom for f32.
+    fn check_ranges(
+        body: &Ellipsoid,
+        precision: Precision,
+        velocity: VectorDist,
+        omega: VectorDist,
+        length_scale: f64,
+    ) -> Result<(), Bad> {
+        let (lo, hi, kind) = match precision {
+            Precision::F32 => (
+                f32::MIN_POSITIVE as f64 * 1e3,
+                f32::MAX as f64 * 1e-3,
+                "the f32 kernel",
+            ),
+            Precision::F64 => (f64::MIN_POSITIVE * 1e3, f64::MAX * 1e-3, "f64"),
+        };
+        let j = body.inertia();
+        let a = body.semi_axes();
+        let constants = [
+            body.mass(),
+            1.0 / body.mass(),
+            j.min_element(),
+            j.max_element(),
+            1.0 / j.min_element(),
+            a.min_element() * a.min_element(),
+            a.max_element() * a.max_element(),
+            length_scale,
+        ];
+        if constants.iter().any(|&x| !(x >= lo && x <= hi)) {
+            return Err(bad(
+                &["body"],
+                format!(
+                    "mass {} kg and semi-axes {:?} m give quantities beyond the range of {kind} (inertia {:?} kg·m², length scale {length_scale:e} m); use precision = \"f64\" or rescale the units",
+                    body.mass(),
+                    a.to_array(),
+                    j.to_array()
+                ),
+            ));
+        }
+        let reach = |d: VectorDist| match d {
+            VectorDist::Normal { mean, sd } => mean.abs().max_element() + 40.0 * sd.max_element(),
+            VectorDist::Uniform { low, high } => low.abs().max(high.abs()).max_element(),
+            VectorDist::Fixed(v) => v.abs().max_element(),
+        };
+        let (v, w) = (reach(velocity), reach(omega));
+        let energy = 0.5 * body.mass() * 3.0 * v * v + 0.5 * j.max_element() * 3.0 * w * w;
+        let scale = v + a.max_element() * w;
+        if !(energy <= hi && scale <= hi.sqrt()) {
+            let field = if 0.5 * body.mass() * 3.0 * v * v > 0.5 * j.max_element() * 3.0 * w * w {
+                "velocity"
+            } else {
+                "angular_velocity"
+            };
+            return Err(bad(
+                &[field],
+                format!("speeds up to {v:e} m/s and {w:e} rad/s give kinetic energies up to {energy:e} J, beyond the range of {kind}"),
+            ));
+        }
+        Ok(())
     }
 
     fn resolve_touching(raw: &RawScene, planes: &[NamedPlane]) -> Result<Vec<usize>, Bad> {
