@@ -514,8 +514,8 @@ pub fn post<T: Real, const N: usize>(
 }
 
 /// Marks lanes where a plane outside the placement touches or is penetrated
-/// (the f64 reference then decides). `extra` holds (plane index, column of
-/// the placement for each touching plane) for the planes not touching.
+/// (the f64 reference then decides). Scalar, and skipped entirely when every
+/// plane of the scene is in the placement.
 pub fn check_extra_planes<T: Real, const N: usize>(
     scene: &Scene,
     x: &Inputs<T>,

@@ -223,3 +223,55 @@ fn floor_scene_agrees_with_independent_reference_statistics() {
         assert_eq!(checked, reference.rows.len());
     }
 }
+
+#[test]
+fn planes_outside_the_placement_are_checked_per_sample() {
+    // S1 with a ceiling at Z = 3: the body (c = 2) sits with its centre at
+    // h ∈ [1, 2] above the floor and reaches 2h, so tall poses penetrate the
+    // ceiling. They are counted as `penetrating` and left out of the impact
+    // statistics, at the analytic rate.
+    let dir = std::env::temp_dir().join(format!("impactmc-ceiling-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/floor.toml"))
+        .unwrap()
+        .replace(
+            "[placement]",
+            "[[planes]]\nname = \"ceiling\"\nnormal = [0.0, 0.0, -1.0]\noffset = 3.0\nrestitution = 0.5\n\n[placement]",
+        );
+    let path = dir.join("ceiling.toml");
+    std::fs::write(&path, text).unwrap();
+    for precision in ["f32", "f64"] {
+        let s = load_scene(
+            &path,
+            &Overrides {
+                samples: Some(20_000),
+                precision: Some(precision.into()),
+                ..Overrides::default()
+            },
+        )
+        .unwrap();
+        let r = run(
+            &s,
+            &RunOptions {
+                threads: 2,
+                progress: false,
+            },
+        )
+        .unwrap();
+        let newton = &r.acc.laws[0];
+        // A pose penetrates when its height 2h exceeds 3, i.e. h > 1.5:
+        // h² = 1 + 3u_z² for u uniform on the sphere, so P = P(|u_z| > √(5/12)).
+        let expected = 1.0 - (5.0f64 / 12.0).sqrt();
+        let got = newton.penetrating as f64 / newton.samples as f64;
+        assert!(
+            (got - expected).abs() < 0.02,
+            "{precision}: penetrating fraction {got} vs {expected}"
+        );
+        assert!(newton.energy_ratio.moments.mean().is_finite());
+        assert_eq!(
+            newton.active_sets.iter().sum::<u64>() + newton.penetrating,
+            newton.samples
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
