@@ -469,6 +469,25 @@ fn push_rows<T: Real, const N: usize>(
     }
 }
 
+/// The contact kernel alone on a block of given inputs (geometry, one law's
+/// impulses, post-impact quantities), with the same run-time dispatch as a
+/// run. For benchmarks that compare kernel designs on identical inputs.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+))]
+pub fn kernel_block<T: Real, const N: usize>(
+    consts: &Consts<T, N>,
+    law: Law,
+    inputs: &Inputs<T>,
+    geo: &mut Geometry<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    geometry(consts, inputs, geo);
+    impulses(consts, law, geo, out);
+    post(consts, inputs, geo, out);
+}
+
 /// One block: the lane passes, then the reference for flagged lanes, then the
 /// accumulators (scalar).
 /// What every block of a run shares.
