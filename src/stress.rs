@@ -114,6 +114,20 @@ fn scene(
     Scene::validate("(stress)", "", raw).expect("stress scenes are valid")
 }
 
+/// S3's corner with a given body, speed scale and restitutions: Haar
+/// orientation, v ~ N(−speed, (speed/2)²), ω ~ N(0, 1).
+fn corner_scene(semi_axes: [f64; 3], mass: f64, speed: f64, k: [f64; 3], precision: &str) -> Scene {
+    scene(
+        semi_axes,
+        mass,
+        corner3(k),
+        RawOrientation::Uniform,
+        normal([-speed; 3], 0.5 * speed),
+        normal([0.0; 3], 1.0),
+        precision,
+    )
+}
+
 fn normal(mean: [f64; 3], sd: f64) -> RawVector {
     RawVector::Normal { mean, sd: [sd; 3] }
 }
@@ -358,17 +372,7 @@ pub fn run(samples: usize) -> Vec<Row> {
         rows.extend(kernel_rows(
             "aspect ratio",
             &name,
-            &|p| {
-                scene(
-                    [1.0, 1.0, c],
-                    500.0,
-                    corner3([0.5, 0.7, 0.9]),
-                    uniform(),
-                    normal([-1.0; 3], 0.5),
-                    normal([0.0; 3], 1.0),
-                    p,
-                )
-            },
+            &|p| corner_scene([1.0, 1.0, c], 500.0, 1.0, [0.5, 0.7, 0.9], p),
             samples,
         ));
     }
@@ -378,17 +382,7 @@ pub fn run(samples: usize) -> Vec<Row> {
         rows.extend(kernel_rows(
             "mass",
             &format!("m = 1e{e} kg"),
-            &|p| {
-                scene(
-                    [1.0, 1.0, 2.0],
-                    m,
-                    corner3([0.5, 0.7, 0.9]),
-                    uniform(),
-                    normal([-1.0; 3], 0.5),
-                    normal([0.0; 3], 1.0),
-                    p,
-                )
-            },
+            &|p| corner_scene([1.0, 1.0, 2.0], m, 1.0, [0.5, 0.7, 0.9], p),
             samples,
         ));
     }
@@ -398,17 +392,7 @@ pub fn run(samples: usize) -> Vec<Row> {
         rows.extend(kernel_rows(
             "scale",
             &format!("L = 1e{e} m"),
-            &|p| {
-                scene(
-                    [s, s, 2.0 * s],
-                    500.0,
-                    corner3([0.5, 0.7, 0.9]),
-                    uniform(),
-                    normal([-s; 3], 0.5 * s),
-                    normal([0.0; 3], 1.0),
-                    p,
-                )
-            },
+            &|p| corner_scene([s, s, 2.0 * s], 500.0, s, [0.5, 0.7, 0.9], p),
             samples,
         ));
     }
@@ -489,17 +473,7 @@ pub fn run(samples: usize) -> Vec<Row> {
         rows.extend(kernel_rows(
             "restitution",
             name,
-            &|p| {
-                scene(
-                    [1.0, 1.0, 2.0],
-                    500.0,
-                    corner3(k),
-                    uniform(),
-                    normal([-1.0; 3], 0.5),
-                    normal([0.0; 3], 1.0),
-                    p,
-                )
-            },
+            &|p| corner_scene([1.0, 1.0, 2.0], 500.0, 1.0, k, p),
             samples,
         ));
     }
