@@ -537,16 +537,16 @@ impl Scene {
     /// one step of iterative refinement on the residuals `h_i − e_i − n_i·X0`
     /// brings the distances back to rounding level.
     pub fn centre(&self, a: DMat3) -> DVec3 {
-        let targets: Vec<f64> = self
-            .touching
-            .iter()
-            .map(|&i| {
-                let p = &self.planes[i].plane;
-                let u = a.transpose() * p.normal();
-                (self.body.semi_axes() * u).length() - p.offset()
-            })
-            .collect();
-        let solve = |rhs: &[f64]| -> DVec3 {
+        // At most three touching planes: fixed arrays, no allocation (this
+        // runs per sample when a scene has planes outside the placement).
+        let n = self.touching.len();
+        let mut targets = [0.0; 3];
+        for (t, &i) in targets.iter_mut().zip(&self.touching) {
+            let p = &self.planes[i].plane;
+            let u = a.transpose() * p.normal();
+            *t = (self.body.semi_axes() * u).length() - p.offset();
+        }
+        let solve = |rhs: &[f64; 3]| -> DVec3 {
             self.placement
                 .iter()
                 .zip(rhs)
@@ -555,12 +555,10 @@ impl Scene {
         };
         let mut x = solve(&targets);
         for _ in 0..2 {
-            let residual: Vec<f64> = self
-                .touching
-                .iter()
-                .zip(&targets)
-                .map(|(&i, t)| t - self.planes[i].plane.normal().dot(x))
-                .collect();
+            let mut residual = [0.0; 3];
+            for k in 0..n {
+                residual[k] = targets[k] - self.planes[self.touching[k]].plane.normal().dot(x);
+            }
             x += solve(&residual);
         }
         x
