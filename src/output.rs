@@ -408,7 +408,7 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
 }
 
 /// Key-value metadata: units of every statistic and the schema version.
-pub(crate) fn metadata(summary: &Summary) -> KeyValueMetadata {
+pub fn table_metadata(summary: &Summary) -> KeyValueMetadata {
     let mut units = serde_json::Map::new();
     if let Some(all) = summary
         .laws
@@ -451,9 +451,4 @@ pub fn write_parquet(
             .map(|_| ())
             .map_err(|source| OutputError::Parquet { path, source })
     })
-}
-
-/// Key-value metadata for a table: schema version and units.
-pub fn table_metadata(summary: &Summary) -> KeyValueMetadata {
-    metadata(summary)
 }

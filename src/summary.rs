@@ -121,19 +121,24 @@ fn proportion(k: u64, n: u64) -> (f64, f64) {
     (p, 1.96 * (p * (1.0 - p) / n as f64).sqrt())
 }
 
+/// The three headline statistics as a JSON map.
+fn headline(
+    energy_ratio: StatSummary,
+    omega: StatSummary,
+    velocity: StatSummary,
+) -> Map<String, serde_json::Value> {
+    let mut m = Map::new();
+    m.insert("energy_ratio".into(), json(&energy_ratio));
+    m.insert("omega_after_norm".into(), json(&omega));
+    m.insert("velocity_after_norm".into(), json(&velocity));
+    m
+}
+
 fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
-    let mut stats = Map::new();
-    stats.insert(
-        "energy_ratio".into(),
-        json(&StatSummary::from_stat(&acc.energy_ratio)),
-    );
-    stats.insert(
-        "omega_after_norm".into(),
-        json(&StatSummary::from_stat(&acc.omega_after_norm)),
-    );
-    stats.insert(
-        "velocity_after_norm".into(),
-        json(&StatSummary::from_stat(&acc.velocity_after_norm)),
+    let mut stats = headline(
+        StatSummary::from_stat(&acc.energy_ratio),
+        StatSummary::from_stat(&acc.omega_after_norm),
+        StatSummary::from_stat(&acc.velocity_after_norm),
     );
     for (i, name) in contacts.iter().enumerate() {
         stats.insert(
@@ -183,18 +188,10 @@ fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
         if g.samples == 0 {
             continue;
         }
-        let mut s = Map::new();
-        s.insert(
-            "energy_ratio".into(),
-            json(&StatSummary::from_stat(&g.energy_ratio)),
-        );
-        s.insert(
-            "omega_after_norm".into(),
-            json(&StatSummary::from_stat(&g.omega_after_norm)),
-        );
-        s.insert(
-            "velocity_after_norm".into(),
-            json(&StatSummary::from_stat(&g.velocity_after_norm)),
+        let s = headline(
+            StatSummary::from_stat(&g.energy_ratio),
+            StatSummary::from_stat(&g.omega_after_norm),
+            StatSummary::from_stat(&g.velocity_after_norm),
         );
         let name = active_set_name(mask, contacts);
         let key = if name.is_empty() {
@@ -231,18 +228,10 @@ impl Summary {
         let mut paired = Map::new();
         let first = scene.laws()[0].name();
         for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
-            let mut m = Map::new();
-            m.insert(
-                "energy_ratio".into(),
-                json(&StatSummary::from_moments(&p.energy_ratio)),
-            );
-            m.insert(
-                "omega_after_norm".into(),
-                json(&StatSummary::from_moments(&p.omega_after_norm)),
-            );
-            m.insert(
-                "velocity_after_norm".into(),
-                json(&StatSummary::from_moments(&p.velocity_after_norm)),
+            let m = headline(
+                StatSummary::from_moments(&p.energy_ratio),
+                StatSummary::from_moments(&p.omega_after_norm),
+                StatSummary::from_moments(&p.velocity_after_norm),
             );
             paired.insert(
                 format!("{}-{first}", law.name()),

@@ -179,10 +179,13 @@ fn compliant_contact_converges_to_the_rigid_law() {
         1e-12,
     )
     .unwrap();
+    // Inverse inertance of the contact from first principles (not from the
+    // code under test): ρ = x* × u with x* the support point, G = 1/m + ρ·J⁻¹ρ.
     let g = {
-        // Initial G for this contact, from the rigid solution: λ = −(1+k)v_n/G.
-        let c = &rigid.contacts[0];
-        -(1.0 + k) * c.normal_velocity_before / c.impulse
+        let u = a.transpose() * DVec3::Z;
+        let xs = -(body.semi_axes() * body.semi_axes() * u) / (body.semi_axes() * u).length();
+        let rho = xs.cross(u);
+        1.0 / body.mass() + (rho * rho / body.inertia()).element_sum()
     };
     let start = Rigid {
         x: x0,

@@ -8,7 +8,6 @@ use std::path::Path;
 
 use glam::{DMat3, DVec3};
 use impactmc::engine::{run, RunOptions};
-use impactmc::sampler::Sampler;
 use impactmc::scene::{load_scene, Overrides, Scene};
 use impactmc::summary::{StatSummary, Summary};
 
@@ -88,7 +87,6 @@ fn ks_uniform(mut xs: Vec<f64>) -> f64 {
 /// orientations: (u_z + 1)/2 and the azimuth/2π are U(0, 1) exactly when
 /// u is uniform on the sphere (Archimedes).
 fn sphere_coordinates(s: &Scene, n: usize) -> (Vec<f64>, Vec<f64>) {
-    let sampler = Sampler::new(s);
     let normal = DVec3::new(0.3, -0.5, 0.8).normalize();
     let mut z = Vec::with_capacity(n);
     let mut phi = Vec::with_capacity(n);
@@ -98,7 +96,6 @@ fn sphere_coordinates(s: &Scene, n: usize) -> (Vec<f64>, Vec<f64>) {
         z.push((u.z + 1.0) / 2.0);
         phi.push(u.y.atan2(u.x) / std::f64::consts::TAU + 0.5);
     }
-    let _ = sampler;
     (z, phi)
 }
 
