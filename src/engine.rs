@@ -21,7 +21,7 @@ use crate::lanes::Real;
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler, BLOCK};
 use crate::scene::{Precision, Scene};
-use crate::stats::{LogHistogram, Moments, Stat};
+use crate::stats::{LogHistogram, Moments, Stat, BINS};
 
 /// Statistics of the samples in one active-contact set.
 #[derive(Debug, Clone, Default)]
@@ -583,12 +583,17 @@ fn block_stats<T: Real, const N: usize>(
         }
         derive(geo, out, count, derived);
         let d = &mut **derived;
+        // Local counters with masked indices: no bounds checks in the loop.
+        let mut set_counts = [0u32; 8];
+        let mut impacts = 0u32;
         for s in 0..count {
-            if out.status[s] & PENETRATING == 0 {
-                la.active_sets[d.active[s] as usize] += 1;
-                la.groups[d.active[s] as usize].samples += 1;
-            }
-            la.impacts += (d.impacting[s] > 0.0) as u64;
+            set_counts[d.active[s] as usize & 7] += (out.status[s] & PENETRATING == 0) as u32;
+            impacts += (d.impacting[s] > 0.0) as u32;
+        }
+        la.impacts += impacts as u64;
+        for (m, &c) in set_counts.iter().enumerate().take(la.active_sets.len()) {
+            la.active_sets[m] += c as u64;
+            la.groups[m].samples += c as u64;
         }
         la.energy_ratio
             .moments
@@ -603,6 +608,7 @@ fn block_stats<T: Real, const N: usize>(
             la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
             la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
         }
+        let mut group_hits = [0u32; 8];
         for (m, g) in la.groups.iter_mut().enumerate() {
             // Integer counting keeps this loop vectorisable.
             let mut hits = 0u32;
@@ -611,6 +617,7 @@ fn block_stats<T: Real, const N: usize>(
                 d.mask[s] = on as f64;
                 hits += on;
             }
+            group_hits[m] = hits;
             if hits > 0 {
                 g.impacts += hits as u64;
                 g.energy_ratio.moments.push_weighted(&d.ratio, &d.mask);
@@ -624,14 +631,31 @@ fn block_stats<T: Real, const N: usize>(
         // impacting sample counted in its own contact set's histogram.
         for k in 0..3 {
             let xs = [&d.ratio, &d.omega, &d.speed][k];
+            let mut other = false;
             for s in 0..BLOCK {
                 bins[s] = LogHistogram::bin(xs[s]);
+                other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
             }
-            for s in 0..BLOCK {
-                if d.impacting[s] > 0.0 {
-                    group_stat(&mut la.groups[d.active[s] as usize], k)
-                        .hist
-                        .add(bins[s], xs[s]);
+            let mut tables: [Option<&mut [u64; BINS]>; 8] = Default::default();
+            for (m, g) in la.groups.iter_mut().enumerate() {
+                if group_hits[m] > 0 {
+                    tables[m] = Some(group_stat(g, k).hist.positive_bins());
+                }
+            }
+            for s in 0..count {
+                if (d.impacting[s] > 0.0) & (xs[s] > 0.0) {
+                    if let Some(t) = &mut tables[d.active[s] as usize & 7] {
+                        t[bins[s] as usize & (BINS - 1)] += 1;
+                    }
+                }
+            }
+            if other {
+                for s in 0..count {
+                    if d.impacting[s] > 0.0 && !(xs[s] > 0.0) {
+                        group_stat(&mut la.groups[d.active[s] as usize], k)
+                            .hist
+                            .push(xs[s]);
+                    }
                 }
             }
         }

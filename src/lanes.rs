@@ -111,12 +111,14 @@ macro_rules! real_impl {
             fn ln(self) -> Self {
                 // x = m·2^e with m in [√½, √2); ln m = 2 atanh(s), s = (m−1)/(m+1).
                 let bits = self.to_bits();
-                let raw_exp = ((bits >> $mant) as i64) - $bias;
+                // i32 arithmetic: the exponent fits, and i32 → float
+                // conversions vectorise on every target (i64 ones need AVX-512).
+                let raw_exp = ((bits >> $mant) as i32) - $bias;
                 let mant_bits = (bits & (((1 as $bits) << $mant) - 1)) | (($bias as $bits) << $mant);
                 let m = <$t>::from_bits(mant_bits); // in [1, 2)
                 let big = m > core::f64::consts::SQRT_2 as $t;
                 let m = if big { m * 0.5 } else { m };
-                let e = (raw_exp + big as i64) as $t;
+                let e = (raw_exp + big as i32) as $t;
                 let s = (m - 1.0) / (m + 1.0);
                 let s2 = s * s;
                 let mut p: $t = 0.0;
@@ -143,9 +145,12 @@ macro_rules! real_impl {
                 }
                 let s = a * sp;
                 let c = cp;
-                let quadrant = (q as i64) & 3;
-                let (s1, c1) = if quadrant & 1 == 1 { (c, -s) } else { (s, c) };
-                if quadrant & 2 == 2 { (-s1, -c1) } else { (s1, c1) }
+                // The quadrant q mod 4 in float arithmetic (exact: q is an
+                // integer), which vectorises where float → int casts do not.
+                let quadrant = q - 4.0 * (q * 0.25).floor();
+                let odd = (quadrant == 1.0) | (quadrant == 3.0);
+                let (s1, c1) = if odd { (c, -s) } else { (s, c) };
+                if quadrant >= 2.0 { (-s1, -c1) } else { (s1, c1) }
             }
         }
     };
@@ -251,6 +256,81 @@ impl CounterRng {
             .wrapping_mul(self.draws_per_sample)
             .wrapping_add(j as u64);
         mix64(self.key.wrapping_add(position.wrapping_mul(GOLDEN_GAMMA)))
+    }
+}
+
+/// Eight f64 lanes as one value, for the statistics' masked sums.
+///
+/// LLVM's SLP vectoriser does not pack eight scalar partial sums kept in an
+/// array, but it does pack whole-value operations on an aligned 8-lane
+/// struct: each operation below compiles to one AVX-512 instruction (two on
+/// AVX2, four on SSE2). Lane j always sums the same samples in the same
+/// order, so results do not depend on the SIMD width.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
+pub struct F64x8(pub [f64; 8]);
+
+macro_rules! f64x8_binop {
+    ($name:ident, $op:tt) => {
+        #[inline(always)]
+        pub fn $name(self, o: Self) -> Self {
+            let mut r = self;
+            for j in 0..8 {
+                r.0[j] = self.0[j] $op o.0[j];
+            }
+            r
+        }
+    };
+}
+
+impl F64x8 {
+    #[inline(always)]
+    pub fn splat(x: f64) -> Self {
+        Self([x; 8])
+    }
+    /// Lanes `8c .. 8c + 8` of `xs`.
+    #[inline(always)]
+    pub fn load(xs: &[f64], c: usize) -> Self {
+        let mut r = Self([0.0; 8]);
+        r.0.copy_from_slice(&xs[8 * c..8 * c + 8]);
+        r
+    }
+    f64x8_binop!(add, +);
+    f64x8_binop!(sub, -);
+    f64x8_binop!(mul, *);
+    /// Lane-wise minimum (operands are never NaN here).
+    #[inline(always)]
+    pub fn min(self, o: Self) -> Self {
+        let mut r = self;
+        for j in 0..8 {
+            r.0[j] = if o.0[j] < self.0[j] {
+                o.0[j]
+            } else {
+                self.0[j]
+            };
+        }
+        r
+    }
+    #[inline(always)]
+    pub fn max(self, o: Self) -> Self {
+        let mut r = self;
+        for j in 0..8 {
+            r.0[j] = if o.0[j] > self.0[j] {
+                o.0[j]
+            } else {
+                self.0[j]
+            };
+        }
+        r
+    }
+    /// `a` in lanes where `w > 0`, else `b`.
+    #[inline(always)]
+    pub fn select_positive(w: Self, a: Self, b: Self) -> Self {
+        let mut r = a;
+        for j in 0..8 {
+            r.0[j] = if w.0[j] > 0.0 { a.0[j] } else { b.0[j] };
+        }
+        r
     }
 }
 

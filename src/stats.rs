@@ -9,7 +9,40 @@ pub const SUB_BITS: u32 = 6;
 pub const MIN_EXP: i32 = -32;
 pub const MAX_EXP: i32 = 32;
 const SUB: usize = 1 << SUB_BITS;
-const BINS: usize = (MAX_EXP - MIN_EXP) as usize * SUB;
+/// Bins per sign: a power of two, so a masked index is in range.
+pub const BINS: usize = (MAX_EXP - MIN_EXP) as usize * SUB;
+const _: () = assert!(BINS.is_power_of_two());
+
+use crate::lanes::F64x8;
+
+/// Eight-lane partial sums of a block: weight, shifted sum, shifted sum of
+/// squares, min and max of the weighted values. A function of its own,
+/// compiled per target: inlined into a large caller, LLVM scalarises part
+/// of it.
+#[multiversion::multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+))]
+fn masked_sums<const B: usize>(xs: &[f64; B], w: &[f64; B], shift: f64) -> [F64x8; 5] {
+    let shift = F64x8::splat(shift);
+    let (inf, ninf) = (F64x8::splat(f64::INFINITY), F64x8::splat(f64::NEG_INFINITY));
+    let mut n = F64x8::splat(0.0);
+    let mut s1 = n;
+    let mut s2 = n;
+    let mut lo = inf;
+    let mut hi = ninf;
+    for c in 0..B / 8 {
+        let x = F64x8::load(xs, c);
+        let wk = F64x8::load(w, c);
+        let d = x.sub(shift).mul(wk);
+        n = n.add(wk);
+        s1 = s1.add(d);
+        s2 = s2.add(d.mul(d));
+        lo = lo.min(F64x8::select_positive(wk, x, inf));
+        hi = hi.max(F64x8::select_positive(wk, x, ninf));
+    }
+    [n, s1, s2, lo, hi]
+}
 
 /// Count, mean, variance, min and max.
 ///
@@ -70,41 +103,24 @@ impl Moments {
                 None => return,
             }
         }
-        let shift = self.shift;
-        let mut n = [0f64; 8];
-        let mut s1 = [0f64; 8];
-        let mut s2 = [0f64; 8];
-        let mut lo = [f64::INFINITY; 8];
-        let mut hi = [f64::NEG_INFINITY; 8];
-        for c in 0..B / 8 {
-            for j in 0..8 {
-                let k = c * 8 + j;
-                let (x, wk) = (xs[k], w[k]);
-                let d = (x - shift) * wk;
-                n[j] += wk;
-                s1[j] += d;
-                s2[j] += d * d;
-                let on = wk > 0.0;
-                lo[j] = lo[j].min(if on { x } else { f64::INFINITY });
-                hi[j] = hi[j].max(if on { x } else { f64::NEG_INFINITY });
-            }
-        }
+        let [n, s1, s2, lo, hi] = masked_sums(xs, w, self.shift);
+        let (mut n, mut s1, mut s2, mut lo, mut hi) = (n, s1, s2, lo, hi);
         for k in B / 8 * 8..B {
             if w[k] > 0.0 {
-                let d = xs[k] - shift;
-                n[0] += 1.0;
-                s1[0] += d;
-                s2[0] += d * d;
-                lo[0] = lo[0].min(xs[k]);
-                hi[0] = hi[0].max(xs[k]);
+                let d = xs[k] - self.shift;
+                n.0[0] += 1.0;
+                s1.0[0] += d;
+                s2.0[0] += d * d;
+                lo.0[0] = lo.0[0].min(xs[k]);
+                hi.0[0] = hi.0[0].max(xs[k]);
             }
         }
         for j in 0..8 {
-            self.pending_n += n[j] as u64;
-            self.s1 += s1[j];
-            self.s2 += s2[j];
-            self.min = self.min.min(lo[j]);
-            self.max = self.max.max(hi[j]);
+            self.pending_n += n.0[j] as u64;
+            self.s1 += s1.0[j];
+            self.s2 += s2.0[j];
+            self.min = self.min.min(lo.0[j]);
+            self.max = self.max.max(hi.0[j]);
         }
     }
 
@@ -225,11 +241,8 @@ impl LogHistogram {
     /// [`Self::push`].
     #[inline(always)]
     pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
-        if self.pos.is_empty() {
-            if !w.iter().any(|&x| x > 0.0) {
-                return;
-            }
-            self.pos = vec![0; BINS];
+        if self.pos.is_empty() && !w.iter().any(|&x| x > 0.0) {
+            return;
         }
         let mut idx = [0u16; B];
         let mut other = false;
@@ -237,8 +250,9 @@ impl LogHistogram {
             idx[k] = bin_of(xs[k].abs()) as u16;
             other |= (w[k] > 0.0) & !(xs[k] > 0.0);
         }
+        let pos = self.positive_bins();
         for k in 0..B {
-            self.pos[idx[k] as usize] += ((w[k] > 0.0) & (xs[k] > 0.0)) as u64;
+            pos[idx[k] as usize & (BINS - 1)] += ((w[k] > 0.0) & (xs[k] > 0.0)) as u64;
         }
         if other {
             for k in 0..B {
@@ -249,24 +263,21 @@ impl LogHistogram {
         }
     }
 
-    /// Bin index of a positive value (for [`Self::add_positive`]).
+    /// The counts of positive values by bin (allocated on first use), for
+    /// callers that scatter many increments: an index masked with
+    /// `BINS − 1` needs no bounds check.
+    #[inline(always)]
+    pub fn positive_bins(&mut self) -> &mut [u64; BINS] {
+        if self.pos.is_empty() {
+            self.pos = vec![0; BINS];
+        }
+        (&mut self.pos[..]).try_into().expect("BINS counts")
+    }
+
+    /// Bin index of a positive value, below [`BINS`].
     #[inline(always)]
     pub fn bin(x: f64) -> u16 {
         bin_of(x.abs()) as u16
-    }
-
-    /// Counts a value whose bin `b` was computed by [`Self::bin`]: the fast
-    /// path for positive values, [`Self::push`] otherwise.
-    #[inline(always)]
-    pub fn add(&mut self, b: u16, x: f64) {
-        if x > 0.0 {
-            if self.pos.is_empty() {
-                self.pos = vec![0; BINS];
-            }
-            self.pos[b as usize] += 1;
-        } else {
-            self.push(x);
-        }
     }
 
     #[inline]
