@@ -206,6 +206,8 @@ struct Derived<const N: usize> {
     rebound: [[f64; BLOCK]; N],
     approaching: [[f64; BLOCK]; N],
     active: [u32; BLOCK],
+    /// 1 for lanes that count (in the block and not penetrating).
+    mask_valid: [f64; BLOCK],
     mask: [f64; BLOCK],
 }
 
@@ -220,6 +222,7 @@ impl<const N: usize> Derived<N> {
             rebound: [[0.0; BLOCK]; N],
             approaching: [[0.0; BLOCK]; N],
             active: [0; BLOCK],
+            mask_valid: [0.0; BLOCK],
             mask: [0.0; BLOCK],
         })
     }
@@ -267,6 +270,7 @@ fn derive<T: Real, const N: usize>(
         let valid = (s < count) & (st & PENETRATING == 0);
         let approaching = st & approach_mask;
         d.impacting[s] = (valid & (approaching != 0)) as u32 as f64;
+        d.mask_valid[s] = valid as u32 as f64;
         d.active[s] = (st >> ACTIVE_SHIFT) & approach_mask;
         for i in 0..N {
             d.approaching[i][s] = (valid & (approaching & (1 << i) != 0)) as u32 as f64;
@@ -583,15 +587,18 @@ fn block_stats<T: Real, const N: usize>(
         }
         derive(geo, out, count, derived);
         let d = &mut **derived;
-        // Local counters with masked indices: no bounds checks in the loop.
-        let mut set_counts = [0u32; 8];
+        // Counts as vectorised compare-and-sum passes (a scatter into one
+        // counter per set would chain every sample through memory).
         let mut impacts = 0u32;
-        for s in 0..count {
-            set_counts[d.active[s] as usize & 7] += (out.status[s] & PENETRATING == 0) as u32;
+        for s in 0..BLOCK {
             impacts += (d.impacting[s] > 0.0) as u32;
         }
         la.impacts += impacts as u64;
-        for (m, &c) in set_counts.iter().enumerate().take(la.active_sets.len()) {
+        for m in 0..la.active_sets.len() {
+            let mut c = 0u32;
+            for s in 0..BLOCK {
+                c += ((d.active[s] == m as u32) & (d.mask_valid[s] > 0.0)) as u32;
+            }
             la.active_sets[m] += c as u64;
             la.groups[m].samples += c as u64;
         }
@@ -608,7 +615,10 @@ fn block_stats<T: Real, const N: usize>(
             la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
             la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
         }
-        let mut group_hits = [0u32; 8];
+        let mut present = [false; 8];
+        for s in 0..BLOCK {
+            present[d.active[s] as usize & 7] = true;
+        }
         for (m, g) in la.groups.iter_mut().enumerate() {
             // Integer counting keeps this loop vectorisable.
             let mut hits = 0u32;
@@ -617,7 +627,6 @@ fn block_stats<T: Real, const N: usize>(
                 d.mask[s] = on as f64;
                 hits += on;
             }
-            group_hits[m] = hits;
             if hits > 0 {
                 g.impacts += hits as u64;
                 g.energy_ratio.moments.push_weighted(&d.ratio, &d.mask);
@@ -636,17 +645,18 @@ fn block_stats<T: Real, const N: usize>(
                 bins[s] = LogHistogram::bin(xs[s]);
                 other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
             }
+            // Branch-free: every lane adds its weight (0 or 1) to its set's
+            // table, so every set present in the block gets one.
             let mut tables: [Option<&mut [u64; BINS]>; 8] = Default::default();
             for (m, g) in la.groups.iter_mut().enumerate() {
-                if group_hits[m] > 0 {
+                if present[m] {
                     tables[m] = Some(group_stat(g, k).hist.positive_bins());
                 }
             }
-            for s in 0..count {
-                if (d.impacting[s] > 0.0) & (xs[s] > 0.0) {
-                    if let Some(t) = &mut tables[d.active[s] as usize & 7] {
-                        t[bins[s] as usize & (BINS - 1)] += 1;
-                    }
+            for s in 0..BLOCK {
+                let on = (d.impacting[s] > 0.0) & (xs[s] > 0.0);
+                if let Some(t) = &mut tables[d.active[s] as usize & 7] {
+                    t[bins[s] as usize & (BINS - 1)] += on as u64;
                 }
             }
             if other {
