@@ -174,6 +174,11 @@ impl SymMatrix {
                         a[p * n + k] = c * apk - s * aqk;
                         a[q * n + k] = s * apk + c * aqk;
                     }
+                    // The rotation annihilates a_pq; storing its rounding
+                    // residue instead would keep `off` near ε²·diag and the
+                    // sweeps from ever meeting the stopping test.
+                    a[p * n + q] = 0.0;
+                    a[q * n + p] = 0.0;
                 }
             }
         }
