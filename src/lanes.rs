@@ -271,17 +271,23 @@ impl CounterRng {
 pub struct F64x8(pub [f64; 8]);
 
 macro_rules! f64x8_binop {
-    ($name:ident, $op:tt) => {
-        #[inline(always)]
-        pub fn $name(self, o: Self) -> Self {
-            let mut r = self;
-            for j in 0..8 {
-                r.0[j] = self.0[j] $op o.0[j];
+    ($trait:ident, $name:ident, $op:tt) => {
+        impl $trait for F64x8 {
+            type Output = Self;
+            #[inline(always)]
+            fn $name(self, o: Self) -> Self {
+                let mut r = self;
+                for j in 0..8 {
+                    r.0[j] = self.0[j] $op o.0[j];
+                }
+                r
             }
-            r
         }
     };
 }
+f64x8_binop!(Add, add, +);
+f64x8_binop!(Sub, sub, -);
+f64x8_binop!(Mul, mul, *);
 
 impl F64x8 {
     #[inline(always)]
@@ -295,9 +301,6 @@ impl F64x8 {
         r.0.copy_from_slice(&xs[8 * c..8 * c + 8]);
         r
     }
-    f64x8_binop!(add, +);
-    f64x8_binop!(sub, -);
-    f64x8_binop!(mul, *);
     /// Lane-wise minimum (operands are never NaN here).
     #[inline(always)]
     pub fn min(self, o: Self) -> Self {

@@ -34,10 +34,10 @@ fn masked_sums<const B: usize>(xs: &[f64; B], w: &[f64; B], shift: f64) -> [F64x
     for c in 0..B / 8 {
         let x = F64x8::load(xs, c);
         let wk = F64x8::load(w, c);
-        let d = x.sub(shift).mul(wk);
-        n = n.add(wk);
-        s1 = s1.add(d);
-        s2 = s2.add(d.mul(d));
+        let d = (x - shift) * wk;
+        n = n + wk;
+        s1 = s1 + d;
+        s2 = s2 + d * d;
         lo = lo.min(F64x8::select_positive(wk, x, inf));
         hi = hi.max(F64x8::select_positive(wk, x, ninf));
     }
