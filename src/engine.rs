@@ -195,6 +195,82 @@ impl RunAcc {
     }
 }
 
+/// One accumulator field, as [`RunAcc::visit`] hands it out.
+pub enum Slot<'a> {
+    Count(&'a mut u64),
+    Moments(&'a mut Moments),
+    Histogram(&'a mut LogHistogram),
+}
+
+impl RunAcc {
+    /// Every field with a stable path (`law0.groups.3.energy_ratio.hist`),
+    /// in a fixed order: how shard files store and restore accumulators.
+    pub fn visit(&mut self, f: &mut dyn FnMut(&str, Slot)) {
+        fn stat(f: &mut dyn FnMut(&str, Slot), path: &str, s: &mut Stat) {
+            f(&format!("{path}.moments"), Slot::Moments(&mut s.moments));
+            f(&format!("{path}.hist"), Slot::Histogram(&mut s.hist));
+        }
+        for (li, l) in self.laws.iter_mut().enumerate() {
+            let p = format!("law{li}");
+            for (name, c) in [
+                ("samples", &mut l.samples),
+                ("impacts", &mut l.impacts),
+                ("energy_gain", &mut l.energy_gain),
+                ("degenerate", &mut l.degenerate),
+                ("jammed", &mut l.jammed),
+                ("unsolved", &mut l.unsolved),
+                ("recomputed", &mut l.recomputed),
+                ("penetrating", &mut l.penetrating),
+            ] {
+                f(&format!("{p}.{name}"), Slot::Count(c));
+            }
+            for (m, c) in l.active_sets.iter_mut().enumerate() {
+                f(&format!("{p}.active_sets.{m}"), Slot::Count(c));
+            }
+            stat(f, &format!("{p}.energy_ratio"), &mut l.energy_ratio);
+            stat(f, &format!("{p}.omega_after_norm"), &mut l.omega_after_norm);
+            stat(
+                f,
+                &format!("{p}.velocity_after_norm"),
+                &mut l.velocity_after_norm,
+            );
+            for (i, s) in l.impulse.iter_mut().enumerate() {
+                stat(f, &format!("{p}.impulse.{i}"), s);
+            }
+            for (i, s) in l.rebound.iter_mut().enumerate() {
+                stat(f, &format!("{p}.rebound.{i}"), s);
+            }
+            for (m, g) in l.groups.iter_mut().enumerate() {
+                let q = format!("{p}.groups.{m}");
+                f(&format!("{q}.samples"), Slot::Count(&mut g.samples));
+                f(&format!("{q}.impacts"), Slot::Count(&mut g.impacts));
+                stat(f, &format!("{q}.energy_ratio"), &mut g.energy_ratio);
+                stat(f, &format!("{q}.omega_after_norm"), &mut g.omega_after_norm);
+                stat(
+                    f,
+                    &format!("{q}.velocity_after_norm"),
+                    &mut g.velocity_after_norm,
+                );
+            }
+        }
+        for (pi, pa) in self.pairs.iter_mut().enumerate() {
+            let p = format!("pair{}", pi + 1);
+            f(
+                &format!("{p}.energy_ratio"),
+                Slot::Moments(&mut pa.energy_ratio),
+            );
+            f(
+                &format!("{p}.omega_after_norm"),
+                Slot::Moments(&mut pa.omega_after_norm),
+            );
+            f(
+                &format!("{p}.velocity_after_norm"),
+                Slot::Moments(&mut pa.velocity_after_norm),
+            );
+        }
+    }
+}
+
 /// Per-lane statistics of one law in a block, f64, with their masks.
 struct Derived<const N: usize> {
     ratio: [f64; BLOCK],
@@ -694,7 +770,15 @@ fn block_stats<T: Real, const N: usize>(
 /// Result of a run.
 #[derive(Debug, Clone)]
 pub struct RunResult {
+    /// The finished accumulators of the batches run (all of them unless
+    /// sharded).
     pub acc: RunAcc,
+    /// A sharded run's merge-tree nodes, unfinished, for `impactmc merge`
+    /// (empty otherwise).
+    pub nodes: Vec<(Node, RunAcc)>,
+    /// Batches in the scene, and how many were run.
+    pub batches: u64,
+    pub batches_run: u64,
     pub wall_seconds: f64,
     pub cpu_seconds: Option<f64>,
     pub threads: usize,
@@ -707,6 +791,8 @@ pub struct RunOptions {
     pub threads: usize,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// Run only this shard's batches.
+    pub shard: Option<Shard>,
 }
 
 /// Batches merged per step: bounds memory whatever the sample count.
@@ -717,15 +803,15 @@ pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), String> + Send + '
 
 fn run_typed<T: Real, const N: usize>(
     scene: &Scene,
+    batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     mut sink: Option<&mut SampleSink>,
-) -> Result<RunAcc, String> {
+) -> Result<Vec<(Node, RunAcc)>, String> {
     let consts = Consts::<T, N>::new(scene);
     let sampler = Sampler::new(scene);
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
-    let batches = total.div_ceil(batch);
     let (nf, ni) = {
         let (f, i) = sample_columns(scene);
         (f.len(), i.len())
@@ -742,10 +828,10 @@ fn run_typed<T: Real, const N: usize>(
     } else {
         BATCHES_IN_FLIGHT
     };
-    let mut acc = RunAcc::new(laws, N);
-    let mut start = 0;
-    while start < batches {
-        let end = (start + in_flight).min(batches);
+    let mut tree = TreeStack::default();
+    let mut start = batch_range.start;
+    while start < batch_range.end {
+        let end = (start + in_flight).min(batch_range.end);
         let parts: Vec<(RunAcc, Option<SampleRows>)> = (start..end)
             .into_par_iter()
             .map_init(
@@ -767,16 +853,158 @@ fn run_typed<T: Real, const N: usize>(
                 },
             )
             .collect();
-        for (p, rows) in parts {
-            acc.merge(&p);
+        for (b, (p, rows)) in (start..end).zip(parts) {
+            tree.push(b, p);
             if let (Some(sink), Some(rows)) = (sink.as_mut(), rows) {
                 sink(rows)?;
             }
         }
         start = end;
     }
-    acc.finish();
-    Ok(acc)
+    Ok(tree.nodes)
+}
+
+/// A node of the fixed merge tree over batch indices: the batches
+/// `[index·2^level, (index + 1)·2^level)`.
+///
+/// A run's accumulators are merged along this tree, whatever computed
+/// them: node = merge(left child, right child), with missing batches past the
+/// end empty (merging an empty accumulator is exact: it changes no bit).
+/// A shard holds the maximal nodes inside its batch range, and merging
+/// shards rebuilds the same tree, so N shards give the single run's answer to
+/// the last bit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Node {
+    pub level: u32,
+    pub index: u64,
+}
+
+impl Node {
+    /// The batches this node covers.
+    pub fn batches(&self) -> std::ops::Range<u64> {
+        let lo = self.index << self.level;
+        lo..lo + (1u64 << self.level)
+    }
+}
+
+/// Batch results in batch order, merged as soon as both children of a tree
+/// node are complete: what remains are the maximal nodes inside the range
+/// seen (at most two per level).
+#[derive(Default)]
+struct TreeStack {
+    nodes: Vec<(Node, RunAcc)>,
+}
+
+impl TreeStack {
+    fn push(&mut self, batch: u64, mut acc: RunAcc) {
+        let mut node = Node {
+            level: 0,
+            index: batch,
+        };
+        while let Some(&(top, _)) = self.nodes.last() {
+            let siblings =
+                top.level == node.level && top.index % 2 == 0 && top.index + 1 == node.index;
+            if !siblings {
+                break;
+            }
+            let (_, mut left) = self.nodes.pop().expect("checked above");
+            left.merge(&acc);
+            acc = left;
+            node = Node {
+                level: node.level + 1,
+                index: top.index / 2,
+            };
+        }
+        self.nodes.push((node, acc));
+    }
+}
+
+/// The root of the merge tree over `batches` batches from nodes that do not
+/// overlap. Batches no node covers count as empty; their number is returned
+/// with the (unfinished) accumulator.
+pub fn reduce_tree(
+    nodes: Vec<(Node, RunAcc)>,
+    batches: u64,
+    laws: usize,
+    contacts: usize,
+) -> (RunAcc, u64) {
+    let mut map: std::collections::HashMap<Node, RunAcc> = nodes.into_iter().collect();
+    let mut levels = 0;
+    while (1u64 << levels) < batches {
+        levels += 1;
+    }
+    let mut missing = 0;
+    let root = reduce_node(
+        Node {
+            level: levels,
+            index: 0,
+        },
+        batches,
+        &mut map,
+        &mut missing,
+        &|| RunAcc::new(laws, contacts),
+    );
+    (root, missing)
+}
+
+fn reduce_node(
+    node: Node,
+    batches: u64,
+    map: &mut std::collections::HashMap<Node, RunAcc>,
+    missing: &mut u64,
+    empty: &dyn Fn() -> RunAcc,
+) -> RunAcc {
+    let range = node.batches();
+    if range.start >= batches {
+        return empty();
+    }
+    if let Some(acc) = map.remove(&node) {
+        return acc;
+    }
+    if node.level == 0 {
+        *missing += 1;
+        return empty();
+    }
+    let child = |i| Node {
+        level: node.level - 1,
+        index: i,
+    };
+    let mut left = reduce_node(child(2 * node.index), batches, map, missing, empty);
+    let right = reduce_node(child(2 * node.index + 1), batches, map, missing, empty);
+    left.merge(&right);
+    left
+}
+
+/// Shard `index` of `count`: a contiguous share of the batch indices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u64,
+    pub count: u64,
+}
+
+impl Shard {
+    /// Parses `I/N` (0 ≤ I < N).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("--shard must be I/N (e.g. 3/8), got {s:?}"))?;
+        let (index, count): (u64, u64) = match (i.trim().parse(), n.trim().parse()) {
+            (Ok(i), Ok(n)) => (i, n),
+            _ => return Err(format!("--shard must be I/N with integers, got {s:?}")),
+        };
+        if count == 0 || index >= count {
+            return Err(format!(
+                "--shard I/N needs 0 <= I < N, got {s:?} (indices start at 0)"
+            ));
+        }
+        Ok(Self { index, count })
+    }
+
+    /// Its batches out of `batches`: `[⌊I·B/N⌋, ⌊(I+1)·B/N⌋)`.
+    pub fn batches(&self, batches: u64) -> std::ops::Range<u64> {
+        let at = |i: u64| (i as u128 * batches as u128 / self.count as u128) as u64;
+        at(self.index)..at(self.index + 1)
+    }
 }
 
 fn cpu_seconds() -> Option<f64> {
@@ -818,8 +1046,15 @@ pub fn run_with_samples(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let bar = if opts.progress && scene.samples() >= 20_000_000 {
-        let b = indicatif::ProgressBar::new(scene.samples());
+    let batches = scene.samples().div_ceil(scene.batch_size());
+    let range = match opts.shard {
+        Some(shard) => shard.batches(batches),
+        None => 0..batches,
+    };
+    let samples_run = (range.end * scene.batch_size()).min(scene.samples())
+        - (range.start * scene.batch_size()).min(scene.samples());
+    let bar = if opts.progress && samples_run >= 20_000_000 {
+        let b = indicatif::ProgressBar::new(samples_run);
         b.set_style(
             indicatif::ProgressStyle::with_template(
                 "{bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}",
@@ -832,16 +1067,25 @@ pub fn run_with_samples(
     };
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
-    let acc = pool
+    let r = range.clone();
+    let nodes = pool
         .install(|| match (scene.precision(), scene.touching().len()) {
-            (Precision::F32, 1) => run_typed::<f32, 1>(scene, &bar, sink),
-            (Precision::F32, 2) => run_typed::<f32, 2>(scene, &bar, sink),
-            (Precision::F32, _) => run_typed::<f32, 3>(scene, &bar, sink),
-            (Precision::F64, 1) => run_typed::<f64, 1>(scene, &bar, sink),
-            (Precision::F64, 2) => run_typed::<f64, 2>(scene, &bar, sink),
-            (Precision::F64, _) => run_typed::<f64, 3>(scene, &bar, sink),
+            (Precision::F32, 1) => run_typed::<f32, 1>(scene, r, &bar, sink),
+            (Precision::F32, 2) => run_typed::<f32, 2>(scene, r, &bar, sink),
+            (Precision::F32, _) => run_typed::<f32, 3>(scene, r, &bar, sink),
+            (Precision::F64, 1) => run_typed::<f64, 1>(scene, r, &bar, sink),
+            (Precision::F64, 2) => run_typed::<f64, 2>(scene, r, &bar, sink),
+            (Precision::F64, _) => run_typed::<f64, 3>(scene, r, &bar, sink),
         })
         .map_err(RunError::Sink)?;
+    let (laws, contacts) = (scene.laws().len(), scene.touching().len());
+    let kept = if opts.shard.is_some() {
+        nodes.clone()
+    } else {
+        Vec::new()
+    };
+    let (mut acc, _) = reduce_tree(nodes, batches, laws, contacts);
+    acc.finish();
     let wall_seconds = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let cpu_seconds = match (cpu0, cpu_seconds()) {
@@ -850,6 +1094,9 @@ pub fn run_with_samples(
     };
     Ok(RunResult {
         acc,
+        nodes: kept,
+        batches,
+        batches_run: range.end - range.start,
         wall_seconds,
         cpu_seconds,
         threads,

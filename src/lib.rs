@@ -18,6 +18,7 @@ pub mod physics;
 pub mod sampler;
 pub mod samples;
 pub mod scene;
+pub mod shard;
 pub mod stats;
 pub mod stress;
 pub mod study;

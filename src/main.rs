@@ -8,10 +8,10 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use impactmc::case::{parse_case, Case};
-use impactmc::engine::RunOptions;
+use impactmc::engine::{RunOptions, Shard};
 use impactmc::output::prepare_dir;
 use impactmc::scene::Overrides;
-use impactmc::study::{run_study, StudyError};
+use impactmc::study::{merge_study, run_study, StudyError};
 use impactmc::sweep::plan;
 
 /// The scene `impactmc run` uses when given none.
@@ -45,6 +45,9 @@ enum Command {
         #[arg(long, default_value_t = 4096)]
         samples: usize,
     },
+    /// Merge shard folders (written by `run --shard I/N`) into the outputs
+    /// of a single run, and print its summary.
+    Merge(MergeArgs),
     /// Print the manifest and summary of a finished run folder.
     Inspect {
         /// A folder written by `impactmc run`.
@@ -87,6 +90,30 @@ struct RunArgs {
     /// Per-sample columns to keep, comma-separated (default: all).
     #[arg(long, value_delimiter = ',')]
     columns: Option<Vec<String>>,
+    /// Run only shard I of N (0 ≤ I < N): a contiguous share of the batches,
+    /// saved with its accumulator state for `impactmc merge`.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Summary format on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// Shard folders, in any order.
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Output folder for the merged run.
+    #[arg(long)]
+    out: PathBuf,
+    /// Overwrite an output folder that already holds a run.
+    #[arg(long)]
+    force: bool,
+    /// Merge even if shards are missing (the result is marked partial) or
+    /// given twice (the first copy is kept).
+    #[arg(long)]
+    allow_partial: bool,
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
@@ -168,13 +195,21 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
         precision: args.precision.clone(),
     };
+    let shard = args
+        .shard
+        .as_deref()
+        .map(Shard::parse)
+        .transpose()
+        .map_err(bad_input)?;
     // Validate the scene (every sweep point) and the folder before any work.
     let (_, points) = plan(&path, &overrides).map_err(|e| bad_input(e.to_string()))?;
     let name = points[0].scene.name().to_string();
-    let dir = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(&name));
+    let dir = args.out.clone().unwrap_or_else(|| match shard {
+        Some(s) => {
+            PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))
+        }
+        None => PathBuf::from("results").join(&name),
+    });
     prepare_dir(&dir, args.force).map_err(|e| bad_input(e.to_string()))?;
     let study = run_study(
         &path,
@@ -182,6 +217,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         &RunOptions {
             threads: args.threads,
             progress: true,
+            shard,
         },
         &dir,
     )
@@ -192,14 +228,32 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             message: other.to_string(),
         },
     })?;
-    let text = study.text();
+    let mut text = study.text();
+    if let Some(s) = shard {
+        let r = &study.points[0].result;
+        let range = s.batches(r.batches);
+        text = format!(
+            "shard {}/{}: batches {}..{} of {} per point (merge the shard folders with `impactmc merge`)\n{text}",
+            s.index, s.count, range.start, range.end, r.batches
+        );
+    }
+    finish(study, text, &dir, args.format)
+}
+
+/// Writes a study's folder, then prints its summary.
+fn finish(
+    study: impactmc::study::Study,
+    text: String,
+    dir: &std::path::Path,
+    format: Format,
+) -> Result<(), Failure> {
     let json = study.summary_json();
     // Outputs first, so a closed stdout never costs the results.
     study.write().map_err(|e| Failure {
         code: 1,
         message: e.to_string(),
     })?;
-    match args.format {
+    match format {
         Format::Text => {
             emit(&text);
             emit(&format!("\nwrote {}\n", dir.display()));
@@ -210,6 +264,40 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         )),
     }
     Ok(())
+}
+
+fn merge(args: &MergeArgs) -> Result<(), Failure> {
+    prepare_dir(&args.out, args.force).map_err(|e| bad_input(e.to_string()))?;
+    let study = merge_study(&args.shards, args.allow_partial, &args.out).map_err(|e| match e {
+        StudyError::Scene(e) => bad_input(e.to_string()),
+        StudyError::Merge(e) => bad_input(e.to_string()),
+        other => Failure {
+            code: 1,
+            message: other.to_string(),
+        },
+    })?;
+    let mut text = study.text();
+    if let Some(m) = &study.merge {
+        let mut head = format!(
+            "merged {} of {} shards",
+            m.shards_merged.len(),
+            m.shard_count
+        );
+        if m.partial {
+            head.push_str(&format!(
+                "; PARTIAL: shards {:?} are missing, so the statistics cover only the merged shards' samples",
+                m.missing_shards
+            ));
+        }
+        if !m.duplicate_shards_ignored.is_empty() {
+            head.push_str(&format!(
+                "; duplicate copies of shards {:?} ignored",
+                m.duplicate_shards_ignored
+            ));
+        }
+        text = format!("{head}\n{text}");
+    }
+    finish(study, text, &args.out, args.format)
 }
 
 fn inspect(dir: &std::path::Path, format: Format) -> Result<(), Failure> {
@@ -281,6 +369,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Solve { case } => solve(case),
         Command::Run(args) => run_scene(args),
+        Command::Merge(args) => merge(args),
         Command::Inspect { dir, format } => inspect(dir, *format),
         Command::Stress { samples } => {
             let rows = impactmc::stress::run(*samples);

@@ -59,6 +59,32 @@ pub struct Manifest {
     pub threads: usize,
     pub machine: Machine,
     pub files: Vec<String>,
+    /// A shard run (`--shard I/N`): its index and count.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shard: Option<ShardRef>,
+    /// A merge of shards (`impactmc merge`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub merge: Option<MergeInfo>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ShardRef {
+    pub index: u64,
+    pub count: u64,
+    pub batch_start: u64,
+    pub batch_end: u64,
+}
+
+/// What a merge combined. `partial` is true when shards were missing: the
+/// statistics then cover only the merged shards' samples.
+#[derive(Debug, Clone, Serialize)]
+pub struct MergeInfo {
+    pub shard_count: u64,
+    pub shards_merged: Vec<u64>,
+    pub missing_shards: Vec<u64>,
+    pub duplicate_shards_ignored: Vec<u64>,
+    pub partial: bool,
+    pub shard_dirs: Vec<String>,
 }
 
 /// Seconds since the epoch as `YYYY-MM-DDTHH:MM:SSZ`.

@@ -167,6 +167,26 @@ impl Moments {
         self.max = self.max.max(o.max);
     }
 
+    /// The merged state `(n, mean, M2, min, max)`, for shard files. Pending
+    /// sums are folded first.
+    pub fn state(&self) -> (u64, f64, f64, f64, f64) {
+        let (n, mean, m2) = self.merged();
+        (n, mean, m2, self.min, self.max)
+    }
+
+    /// The inverse of [`Self::state`]: bit-exact, so a restored accumulator
+    /// merges exactly as the original would.
+    pub fn from_state(n: u64, mean: f64, m2: f64, min: f64, max: f64) -> Self {
+        Self {
+            n,
+            mean,
+            m2,
+            min,
+            max,
+            ..Self::default()
+        }
+    }
+
     pub fn count(&self) -> u64 {
         self.n + self.pending_n
     }
@@ -315,6 +335,43 @@ impl LogHistogram {
             }
         }
         self.zero += o.zero;
+    }
+
+    /// Non-zero counts as `(sign, bin, count)`: sign 1 for positive values
+    /// (bin from [`Self::bin`]), −1 for negative ones, 0 for exact zeros
+    /// (bin 0). For shard files.
+    pub fn entries(&self) -> Vec<(i8, u16, u64)> {
+        let mut out = Vec::new();
+        if self.zero > 0 {
+            out.push((0, 0, self.zero));
+        }
+        for (sign, table) in [(1i8, &self.pos), (-1, &self.neg)] {
+            for (b, &c) in table.iter().enumerate() {
+                if c > 0 {
+                    out.push((sign, b as u16, c));
+                }
+            }
+        }
+        out
+    }
+
+    /// Adds `count` to an entry of [`Self::entries`].
+    pub fn add_entry(&mut self, sign: i8, bin: u16, count: u64) -> Result<(), String> {
+        if bin as usize >= BINS {
+            return Err(format!("histogram bin {bin} out of range (< {BINS})"));
+        }
+        match sign {
+            0 => self.zero += count,
+            1 => self.positive_bins()[bin as usize] += count,
+            -1 => {
+                if self.neg.is_empty() {
+                    self.neg = vec![0; BINS];
+                }
+                self.neg[bin as usize] += count;
+            }
+            _ => return Err(format!("histogram sign {sign} is not -1, 0 or 1")),
+        }
+        Ok(())
     }
 
     pub fn total(&self) -> u64 {

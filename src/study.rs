@@ -8,13 +8,15 @@ use std::time::SystemTime;
 use serde_json::json;
 
 use crate::config::RawScene;
+use crate::engine::Shard;
 use crate::engine::{
     run_with_samples, sample_columns, RunError, RunOptions, RunResult, SampleRows,
 };
-use crate::manifest::{utc_string, Machine, Manifest};
+use crate::manifest::{utc_string, Machine, Manifest, MergeInfo, ShardRef};
 use crate::output::{histograms_frame, summary_frame, write_parquet, OutputError, Staging};
 use crate::samples::{SamplesWriter, Selection};
 use crate::scene::{Overrides, Scene, SceneError};
+use crate::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
 use crate::summary::Summary;
 use crate::sweep::{plan, Axis};
 
@@ -35,6 +37,10 @@ pub struct Study {
     pub finished: SystemTime,
     /// Rows written to samples.parquet, when asked for.
     pub sample_rows: Option<u64>,
+    /// Set for a shard run: the folder then also holds the shard state.
+    pub shard: Option<Shard>,
+    /// Set for a merge of shards.
+    pub merge: Option<MergeInfo>,
     staging: Staging,
 }
 
@@ -46,6 +52,8 @@ pub enum StudyError {
     Run(#[from] RunError),
     #[error(transparent)]
     Output(#[from] OutputError),
+    #[error(transparent)]
+    Merge(#[from] MergeError),
 }
 
 /// Validates every grid point and the per-sample columns first (so bad
@@ -114,7 +122,96 @@ pub fn run_study(
         started,
         finished: SystemTime::now(),
         sample_rows,
+        shard: opts.shard,
+        merge: None,
         staging,
+    })
+}
+
+/// Merges shard folders into a study with the outputs of a single run (see
+/// [`crate::shard`]). The scene is the shards' own `scene.toml`.
+pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<Study, StudyError> {
+    let started = SystemTime::now();
+    let checked = check(dirs, allow_partial)?;
+    let first = &checked.shards[0];
+    let scene_path = first.dir.join("scene.toml");
+    let text = std::fs::read_to_string(&scene_path).unwrap_or_default();
+    let file = scene_path.display().to_string();
+    let mut raw = Scene::parse(&file, &text)?;
+    // A merge writes summaries only; per-sample rows stay in the shards.
+    if let Some(o) = raw.output.as_mut() {
+        o.per_sample = false;
+    }
+    let (axes, points) = plan(&scene_path, &Overrides::default())?;
+    if points.len() != first.info.points {
+        return Err(MergeError::State {
+            path: first.dir.join("shard.json").display().to_string(),
+            message: format!(
+                "points is {}, but scene.toml has {} grid points",
+                first.info.points,
+                points.len()
+            ),
+        }
+        .into());
+    }
+    let mut nodes: Vec<Vec<_>> = points.iter().map(|_| Vec::new()).collect();
+    let mut wall = vec![0.0; points.len()];
+    let mut cpu: Vec<Option<f64>> = vec![Some(0.0); points.len()];
+    for s in &checked.shards {
+        let laws = points[0].scene.laws().len();
+        let contacts = points[0].scene.touching().len();
+        let per_point = read_nodes(&s.dir, points.len(), laws, contacts)?;
+        for (k, n) in per_point.into_iter().enumerate() {
+            nodes[k].extend(n);
+            wall[k] += s.info.wall_seconds.get(k).copied().unwrap_or(0.0);
+            cpu[k] = match (cpu[k], s.info.cpu_seconds.get(k).copied().flatten()) {
+                (Some(a), Some(b)) => Some(a + b),
+                _ => None,
+            };
+        }
+    }
+    let threads = first.info.threads;
+    let mut runs = Vec::with_capacity(points.len());
+    for (k, (p, n)) in points.into_iter().zip(nodes).enumerate() {
+        let result = merge_point(
+            n,
+            first.info.batches,
+            p.scene.laws().len(),
+            p.scene.touching().len(),
+            wall[k],
+            cpu[k],
+            threads,
+        );
+        let summary = Summary::new(&p.scene, &result);
+        runs.push(PointRun {
+            values: p.values,
+            scene: p.scene,
+            result,
+            summary,
+        });
+    }
+    let merge = MergeInfo {
+        shard_count: checked.count,
+        shards_merged: checked.shards.iter().map(|s| s.info.shard_index).collect(),
+        missing_shards: checked.missing.clone(),
+        duplicate_shards_ignored: checked.duplicates.clone(),
+        partial: !checked.missing.is_empty(),
+        shard_dirs: checked
+            .shards
+            .iter()
+            .map(|s| s.dir.display().to_string())
+            .collect(),
+    };
+    Ok(Study {
+        raw,
+        axes,
+        points: runs,
+        started,
+        finished: SystemTime::now(),
+        sample_rows: None,
+        shard: None,
+        merge: Some(merge),
+        staging: Staging::new(dir),
     })
 }
 
@@ -143,6 +240,57 @@ impl Study {
                 "summary": p.summary,
             })).collect::<Vec<_>>(),
         })
+    }
+
+    /// A shard's extra files: shard.json, scene.toml and the state tables.
+    fn write_shard_state(
+        &self,
+        staging: &mut Staging,
+        shard: Shard,
+    ) -> Result<Vec<String>, OutputError> {
+        let dir = staging.dir().to_path_buf();
+        let results: Vec<&RunResult> = self.points.iter().map(|p| &p.result).collect();
+        let info = info_of(
+            &self.raw.name,
+            self.raw.seed,
+            self.raw.samples,
+            shard,
+            &results,
+        );
+        staging.write_json("shard.json", &info)?;
+        let scene = toml::to_string(&self.raw).map_err(|e| OutputError::Io {
+            path: dir.join("scene.toml").display().to_string(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        staging.write("scene.toml", |f| {
+            use std::io::Write;
+            f.write_all(scene.as_bytes())
+                .map_err(|source| OutputError::Io {
+                    path: dir.join("scene.toml").display().to_string(),
+                    source,
+                })
+        })?;
+        let nodes: Vec<&[_]> = self.points.iter().map(|p| &p.result.nodes[..]).collect();
+        let names = [
+            "state_counts.parquet",
+            "state_moments.parquet",
+            "state_histograms.parquet",
+        ];
+        let frames = state_frames(&nodes).map_err(|source| OutputError::Parquet {
+            path: dir.join(names[0]).display().to_string(),
+            source,
+        })?;
+        for (name, mut df) in names.into_iter().zip(frames) {
+            write_parquet(
+                staging,
+                name,
+                &mut df,
+                crate::output::table_metadata(&self.points[0].summary),
+            )?;
+        }
+        let mut files = vec!["shard.json".to_string(), "scene.toml".into()];
+        files.extend(names.iter().map(|s| s.to_string()));
+        Ok(files)
     }
 
     /// The terminal summary.
@@ -209,6 +357,17 @@ impl Study {
             "histograms.parquet".into(),
             "summary.json".into(),
         ];
+        let mut shard_ref = None;
+        if let Some(shard) = self.shard {
+            files.extend(self.write_shard_state(&mut staging, shard)?);
+            let range = shard.batches(self.points[0].result.batches);
+            shard_ref = Some(ShardRef {
+                index: shard.index,
+                count: shard.count,
+                batch_start: range.start,
+                batch_end: range.end,
+            });
+        }
         if self.sample_rows.is_some() {
             files.push("samples.parquet".into());
         }
@@ -227,6 +386,8 @@ impl Study {
             threads: self.points[0].result.threads,
             machine: Machine::current(),
             files,
+            shard: shard_ref,
+            merge: self.merge.clone(),
         };
         staging.write_json("manifest.json", &manifest)?;
         staging.commit()

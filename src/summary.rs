@@ -238,14 +238,17 @@ impl Summary {
                 serde_json::Value::Object(m),
             );
         }
+        // The samples the accumulators hold: the scene's count, except for
+        // a shard's share or a partial merge.
+        let samples = result.acc.laws.first().map_or(0, |l| l.samples);
         Summary {
             scene: scene.name().to_string(),
-            samples: scene.samples(),
+            samples,
             seed: scene.seed(),
             precision: scene.precision().name().to_string(),
             threads: result.threads,
             throughput: Throughput {
-                samples_per_second: scene.samples() as f64 / result.wall_seconds,
+                samples_per_second: samples as f64 / result.wall_seconds,
                 wall_seconds: result.wall_seconds,
                 cpu_seconds: result.cpu_seconds,
             },
