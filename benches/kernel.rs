@@ -48,6 +48,7 @@ fn kernel(c: &mut Criterion) {
                 let opts = RunOptions {
                     threads: 1,
                     progress: false,
+                    ..Default::default()
                 };
                 g.bench_function(BenchmarkId::new(format!("{name}/{law}"), precision), |b| {
                     b.iter(|| run(&s, &opts).expect("pool"))

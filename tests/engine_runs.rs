@@ -25,6 +25,7 @@ fn summary(s: &Scene, threads: usize) -> Summary {
         &RunOptions {
             threads,
             progress: false,
+            ..Default::default()
         },
     )
     .unwrap();
@@ -252,6 +253,7 @@ fn planes_outside_the_placement_are_checked_per_sample() {
             &RunOptions {
                 threads: 2,
                 progress: false,
+                ..Default::default()
             },
         )
         .unwrap();

@@ -208,6 +208,7 @@ fn mutated_scenes_never_panic_and_errors_name_file_and_field() {
                     &RunOptions {
                         threads: 1,
                         progress: false,
+                        ..Default::default()
                     },
                 )
                 .map_err(|e| TestCaseError::fail(e.to_string()))?;

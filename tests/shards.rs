@@ -297,7 +297,7 @@ fn missing_duplicate_and_foreign_shards_are_refused() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("scene.toml"), "{}", stderr(&o));
     // Not a shard folder at all.
-    let o = merge(&[d.clone()], &d.join("m6"), &[]);
+    let o = merge(std::slice::from_ref(&d), &d.join("m6"), &[]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("not a shard folder"), "{}", stderr(&o));
     // Bad --shard values.
