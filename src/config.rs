@@ -37,6 +37,38 @@ pub struct RawScene {
     pub sweep: Option<toml::Table>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<RawOutput>,
+    /// Contact material, for the compliant reference of `impactmc accuracy`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<RawMaterial>,
+    /// Knobs of `impactmc accuracy` (the accuracy ladder).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<RawAccuracy>,
+}
+
+/// Contact material of the compliant model.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawMaterial {
+    /// Effective modulus E* (Pa) of the body–plane pair; steel on steel
+    /// (E = 210 GPa, ν = 0.3) is 1.15e11.
+    pub effective_modulus: Option<f64>,
+}
+
+/// Knobs of the accuracy ladder.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawAccuracy {
+    /// Samples on which every rung is compared (the same samples for all).
+    pub samples: Option<u64>,
+    /// Compliant rungs: RK4 steps per contact duration.
+    pub compliant_steps: Option<Vec<u32>>,
+    /// The reference: the finest compliant run.
+    pub reference_steps: Option<u32>,
+    pub pgs_sweeps: Option<Vec<u32>>,
+    /// Sample counts of the confidence-interval rung.
+    pub sample_counts: Option<Vec<u64>>,
+    /// Samples of each law's timing run (one thread, end to end).
+    pub timing_samples: Option<u64>,
 }
 
 /// What a run writes beyond the summary tables.

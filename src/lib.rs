@@ -7,6 +7,7 @@
 
 #![deny(unsafe_code)]
 
+pub mod accuracy;
 pub mod case;
 pub mod config;
 pub mod engine;

@@ -48,6 +48,20 @@ enum Command {
     /// Merge shard folders (written by `run --shard I/N`) into the outputs
     /// of a single run, and print its summary.
     Merge(MergeArgs),
+    /// The accuracy ladder of a scene: what each law, solver setting,
+    /// precision, contact-point route and sample count costs and buys.
+    /// Writes accuracy.parquet, accuracy.md and accuracy.svg.
+    Accuracy {
+        /// Scene file with [accuracy] and [material] knobs. Default:
+        /// configs/accuracy_corner3.toml.
+        scene: Option<PathBuf>,
+        /// Output folder (default: results/<scene name>-accuracy/).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Overwrite an output folder that already holds results.
+        #[arg(long)]
+        force: bool,
+    },
     /// Print the manifest and summary of a finished run folder.
     Inspect {
         /// A folder written by `impactmc run`.
@@ -300,6 +314,73 @@ fn merge(args: &MergeArgs) -> Result<(), Failure> {
     finish(study, text, &args.out, args.format)
 }
 
+fn accuracy(scene: &Option<PathBuf>, out: &Option<PathBuf>, force: bool) -> Result<(), Failure> {
+    let path = scene
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("configs/accuracy_corner3.toml"));
+    let base = impactmc::scene::load_scene(&path, &Default::default())
+        .map_err(|e| bad_input(e.to_string()))?;
+    impactmc::accuracy::Knobs::from_raw(&path.display().to_string(), base.raw())
+        .map_err(|e| bad_input(e.to_string()))?;
+    let dir = out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(format!("{}-accuracy", base.name())));
+    prepare_dir(&dir, force).map_err(|e| bad_input(e.to_string()))?;
+    let fail = |m: String| Failure {
+        code: 1,
+        message: m,
+    };
+    let ladder = impactmc::accuracy::ladder(&path, &mut |line| eprintln!("{line}"))
+        .map_err(|e| bad_input(e.to_string()))?;
+    let machine = impactmc::manifest::Machine::current();
+    let header = format!(
+        "Regenerate with `cargo run --release -- accuracy {} --out {} --force`. Machine: {} ({} logical cores, {}). Date: {}. impactmc {} ({}).",
+        path.display(),
+        dir.display(),
+        machine.cpu,
+        machine.logical_cores,
+        machine.os,
+        &impactmc::manifest::utc_string(std::time::SystemTime::now())[..10],
+        env!("CARGO_PKG_VERSION"),
+        env!("IMPACTMC_GIT_COMMIT"),
+    );
+    let md = ladder.markdown(&header);
+    let svg = impactmc::accuracy::plot_svg(&ladder).map_err(fail)?;
+    let mut df = ladder.frame().map_err(|e| fail(e.to_string()))?;
+    let mut staging = impactmc::output::Staging::new(&dir);
+    let io = |e: impactmc::output::OutputError| Failure {
+        code: 1,
+        message: e.to_string(),
+    };
+    impactmc::output::write_parquet(
+        &mut staging,
+        "accuracy.parquet",
+        &mut df,
+        polars::prelude::KeyValueMetadata::from_static(vec![(
+            "impactmc.schema_version".into(),
+            impactmc::SCHEMA_VERSION.to_string(),
+        )]),
+    )
+    .map_err(io)?;
+    for (name, text) in [("accuracy.md", &md), ("accuracy.svg", &svg)] {
+        let target = dir.join(name).display().to_string();
+        staging
+            .write(name, |f| {
+                use std::io::Write;
+                f.write_all(text.as_bytes())
+                    .map_err(|source| impactmc::output::OutputError::Io {
+                        path: target.clone(),
+                        source,
+                    })
+            })
+            .map_err(io)?;
+    }
+    staging.commit().map_err(io)?;
+    emit(&md);
+    emit(&format!("\nwrote {}\n", dir.display()));
+    Ok(())
+}
+
 fn inspect(dir: &std::path::Path, format: Format) -> Result<(), Failure> {
     let read = |name: &str| -> Result<serde_json::Value, Failure> {
         let path = dir.join(name);
@@ -370,6 +451,7 @@ fn main() -> ExitCode {
         Command::Solve { case } => solve(case),
         Command::Run(args) => run_scene(args),
         Command::Merge(args) => merge(args),
+        Command::Accuracy { scene, out, force } => accuracy(scene, out, *force),
         Command::Inspect { dir, format } => inspect(dir, *format),
         Command::Stress { samples } => {
             let rows = impactmc::stress::run(*samples);

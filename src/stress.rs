@@ -110,6 +110,8 @@ fn scene(
         angular_velocity: omega,
         sweep: None,
         output: None,
+        material: None,
+        accuracy: None,
     };
     Scene::validate("(stress)", "", raw).expect("stress scenes are valid")
 }

@@ -86,6 +86,58 @@ pub fn inverse_inertance(body: &Ellipsoid, normals: &[DVec3], levers: &[DVec3]) 
     g
 }
 
+/// The paper's route to the contact point (eq. 51–59), for the accuracy
+/// ladder: in the world frame the body is `(X − X0)ᵀ M (X − X0) = 1` with
+/// `M = A D⁻² Aᵀ`; the point nearest the plane makes `n` parallel to the
+/// gradient, `M (X − X0) = n / (2μ)`. One 3×3 linear solve `M y = n`, then
+/// the quadratic `λ² nᵀy = 1` for `X = X0 + λ y`; the root toward the plane
+/// is `λ = −1/sqrt(nᵀy)`. Returns the world point and the signed distance.
+/// The closed form (`ContactGeometry`) is algebraically the same point;
+/// this route loses accuracy as M grows ill-conditioned (extreme aspect
+/// ratios), which is what the ladder shows.
+pub fn support_point_lagrange(
+    body: &Ellipsoid,
+    rotation: DMat3,
+    centre: DVec3,
+    plane: &Plane,
+) -> (DVec3, f64) {
+    let d = body.semi_axes();
+    let dinv2 = DMat3::from_diagonal(1.0 / (d * d));
+    let m = rotation * dinv2 * rotation.transpose();
+    let n = plane.normal();
+    // Gaussian elimination with partial pivoting on [M | n].
+    let mut a = [[0.0f64; 4]; 3];
+    for (r, row) in a.iter_mut().enumerate() {
+        let mr = m.row(r);
+        *row = [mr.x, mr.y, mr.z, n[r]];
+    }
+    for col in 0..3 {
+        let piv = (col..3)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap_or(col);
+        a.swap(col, piv);
+        let pivot_row = a[col];
+        for row in a.iter_mut().skip(col + 1) {
+            let f = row[col] / pivot_row[col];
+            for (x, p) in row.iter_mut().zip(pivot_row).skip(col) {
+                *x -= f * p;
+            }
+        }
+    }
+    let mut y = [0.0f64; 3];
+    for r in (0..3).rev() {
+        let mut s = a[r][3];
+        for c in r + 1..3 {
+            s -= a[r][c] * y[c];
+        }
+        y[r] = s / a[r][r];
+    }
+    let y = DVec3::from_array(y);
+    let lambda = -1.0 / n.dot(y).sqrt();
+    let point = centre + y * lambda;
+    (point, plane.signed_distance(point))
+}
+
 /// Kinetic energy `T = ½m|v|² + ½ωᵀJω` (J), ω in the body frame.
 pub fn kinetic_energy(body: &Ellipsoid, velocity: DVec3, omega_body: DVec3) -> f64 {
     0.5 * body.mass() * velocity.length_squared()

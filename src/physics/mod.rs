@@ -5,6 +5,7 @@
 //! Units are SI throughout (m, kg, s, rad).
 
 mod body;
+mod compliant;
 mod contact;
 mod laws;
 mod lcp;
@@ -13,7 +14,11 @@ mod plane;
 mod rotation;
 
 pub use body::{BodyError, Ellipsoid};
-pub use contact::{inverse_inertance, kinetic_energy, ContactGeometry};
+pub use compliant::{
+    damping_for_restitution, damping_table, restitution_for_damping, solve_compliant,
+    solve_compliant_with, CompliantError, CompliantOutcome, CompliantParams,
+};
+pub use contact::{inverse_inertance, kinetic_energy, support_point_lagrange, ContactGeometry};
 pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
     State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
