@@ -691,12 +691,26 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
         .iter()
         .filter(|r| r.vs_compliant.v_rms.is_finite() && r.vs_compliant.v_rms > 0.0)
         .collect();
+    // Rigid rungs against exact Newton (hollow squares): how far each
+    // solver setting is from the LCP it approximates.
+    let vs_newton: Vec<&Rung> = ladder
+        .rungs
+        .iter()
+        .filter(|r| {
+            r.family != "compliant" && r.vs_newton.v_rms.is_finite() && r.vs_newton.v_rms > 0.0
+        })
+        .collect();
     let span = |xs: &mut dyn Iterator<Item = f64>| -> (f64, f64) {
         let (lo, hi) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
         (lo / 2.0, hi * 2.0)
     };
     let (x0, x1) = span(&mut pts.iter().map(|r| r.ns_per_sample));
-    let (y0, y1) = span(&mut pts.iter().map(|r| r.vs_compliant.v_rms));
+    let (y0, y1) = span(
+        &mut pts
+            .iter()
+            .map(|r| r.vs_compliant.v_rms)
+            .chain(vs_newton.iter().map(|r| r.vs_newton.v_rms)),
+    );
     let mut chart = ChartBuilder::on(&left)
         .caption(
             format!("{}: error vs cost per rung", ladder.scene),
@@ -710,7 +724,7 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
     chart
         .configure_mesh()
         .x_desc("ns per sample, one thread (log)")
-        .y_desc("RMS |Δv⁺| vs finest compliant, m/s (log)")
+        .y_desc("RMS |Δv⁺|, m/s (log): ● vs finest compliant, □ vs exact Newton")
         .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .draw()
@@ -725,23 +739,59 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
         .map_err(|x| e(&x))?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    // Labels are skipped where one is already close (the table has them all).
+    let mut placed: Vec<(f64, f64)> = Vec::new();
+    let mut label_for = |r: &Rung, y: f64| -> String {
+        let (lx, ly) = (r.ns_per_sample.log10(), y.log10());
+        if placed
+            .iter()
+            .any(|&(px, py)| (px - lx).abs() < 0.25 && (py - ly).abs() < 0.12)
+        {
+            return String::new();
+        }
+        placed.push((lx, ly));
+        if r.family == "precision" {
+            format!("{} {}", r.rung, r.precision)
+        } else {
+            r.rung.clone()
+        }
+    };
     for (family, colour) in [("law", BLUE), ("compliant", GREEN), ("precision", MAGENTA)] {
         let sel: Vec<&&Rung> = pts.iter().filter(|r| r.family == family).collect();
-        chart
-            .draw_series(sel.iter().map(|r| {
+        let elems: Vec<_> = sel
+            .iter()
+            .map(|r| {
                 let (x, y) = (r.ns_per_sample, r.vs_compliant.v_rms);
-                let label = if r.family == "precision" {
-                    format!("{} {}", r.rung, r.precision)
-                } else {
-                    r.rung.clone()
-                };
                 EmptyElement::at((x, y))
                     + Circle::new((0, 0), 4, colour.filled())
-                    + Text::new(label, (6, -12), ("sans-serif", 13))
-            }))
+                    + Text::new(label_for(r, y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        chart
+            .draw_series(elems)
             .map_err(|x| e(&x))?
-            .label(family)
+            .label(format!("{family} vs compliant"))
             .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+        let sel: Vec<&&Rung> = vs_newton.iter().filter(|r| r.family == family).collect();
+        if sel.is_empty() {
+            continue;
+        }
+        let elems: Vec<_> = sel
+            .iter()
+            .map(|r| {
+                let (x, y) = (r.ns_per_sample, r.vs_newton.v_rms);
+                EmptyElement::at((x, y))
+                    + Rectangle::new([(-4, -4), (4, 4)], colour.stroke_width(1))
+                    + Text::new(label_for(r, y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs newton"))
+            .legend(move |(x, y)| {
+                Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], colour.stroke_width(1))
+            });
     }
     chart
         .configure_series_labels()
