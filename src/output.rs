@@ -40,7 +40,13 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
 /// run unless `force`, and checks that it is writable before any work.
 pub fn prepare_dir(dir: &Path, force: bool) -> Result<(), OutputError> {
     fs::create_dir_all(dir).map_err(io(dir))?;
-    if !force && dir.join("manifest.json").exists() {
+    // manifest.json marks a finished run (it is written last); accuracy.md
+    // a finished accuracy ladder.
+    if !force
+        && ["manifest.json", "accuracy.md"]
+            .iter()
+            .any(|f| dir.join(f).exists())
+    {
         return Err(OutputError::Exists(dir.display().to_string()));
     }
     // Temporary files of killed runs (their process is gone) are removed.

@@ -7,6 +7,8 @@
 
 use std::path::Path;
 
+use polars::prelude::SerReader;
+
 use glam::DVec3;
 use impactmc::accuracy::{compliant_posts, errors, sample_input, Post};
 use impactmc::engine::evaluate_samples;
@@ -187,4 +189,91 @@ fn lagrange_contact_point_matches_the_closed_form() {
             assert!((d - g.distance).abs() < 1e-12);
         }
     }
+}
+
+/// `impactmc accuracy` end to end on a small ladder: three files, a table
+/// with every rung, a readable Parquet file; bad knobs are refused by name.
+#[test]
+fn accuracy_command_writes_table_plot_and_parquet() {
+    use std::process::Command;
+    let d = std::env::temp_dir().join(format!("impactmc-accuracy-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/accuracy_corner3.toml"),
+    )
+    .unwrap();
+    let small = text
+        .lines()
+        .map(|l| {
+            let key = l.split('=').next().unwrap_or("").trim();
+            match key {
+                "samples" if l.contains("every rung") => "samples = 40".to_string(),
+                "compliant_steps" => "compliant_steps = [12, 25]".to_string(),
+                "reference_steps" => "reference_steps = 100".to_string(),
+                "pgs_sweeps" => "pgs_sweeps = [1, 4]".to_string(),
+                "sample_counts" => "sample_counts = [1000, 10000]".to_string(),
+                "timing_samples" => "timing_samples = 20000".to_string(),
+                _ => l.to_string(),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let scene = d.join("acc.toml");
+    std::fs::write(&scene, &small).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+        .arg("accuracy")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.join("out"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for rung in [
+        "| paper |",
+        "| pgs1 |",
+        "| pgs4 |",
+        "| newton | f64",
+        "| poisson |",
+        "| compliant12 |",
+        "| compliant25 |",
+        "| newton | f32",
+        "| lagrange |",
+        "| 10000 |",
+    ] {
+        assert!(stdout.contains(rung), "{rung} missing:\n{stdout}");
+    }
+    let svg = std::fs::read_to_string(d.join("out/accuracy.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
+    let df = polars::prelude::ParquetReader::new(
+        std::fs::File::open(d.join("out/accuracy.parquet")).unwrap(),
+    )
+    .finish()
+    .unwrap();
+    // 2 + 2 sweeps + newton + poisson laws, 2 compliant, f32, 2 contact point, 2 counts.
+    assert_eq!(df.height(), 12, "{df}");
+    // Bad knobs: one error naming the field and the value.
+    std::fs::write(
+        &scene,
+        small.replace("reference_steps = 100", "reference_steps = 20"),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+        .arg("accuracy")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.join("out2"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("accuracy.reference_steps") && err.contains("20"),
+        "{err}"
+    );
 }
