@@ -7,6 +7,7 @@
 mod body;
 mod compliant;
 mod contact;
+mod flight;
 mod laws;
 mod lcp;
 mod linalg;
@@ -19,6 +20,7 @@ pub use compliant::{
     solve_compliant_with, CompliantError, CompliantOutcome, CompliantParams,
 };
 pub use contact::{inverse_inertance, kinetic_energy, support_point_lagrange, ContactGeometry};
+pub use flight::{advance, precess, rk4_rotation, time_of_impact, Impact, Motion, Rotation};
 pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
     State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
