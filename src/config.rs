@@ -37,6 +37,9 @@ pub struct RawScene {
     pub sweep: Option<toml::Table>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<RawOutput>,
+    /// Effects beyond those the scene implies: flight, gravity, bounces.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effects: Option<RawEffects>,
     /// Contact material, for the compliant reference of `impactmc accuracy`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<RawMaterial>,
@@ -108,7 +111,44 @@ pub struct RawPlane {
 pub struct RawPlacement {
     /// Names of the planes the body touches; the centre is placed so that
     /// exactly these touch (1 to 3 planes with independent normals).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub touching: Vec<String>,
+    /// Instead of `touching`: release the body in flight from a box of
+    /// centre positions (uniform; `min = max` for one point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drop: Option<RawDrop>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawDrop {
+    /// Corners of the box of start positions of the centre (m, world).
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// Effects a scene turns on beyond what its placement implies.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawEffects {
+    /// Flight under gravity before (and between) impacts; implied by
+    /// `placement.drop`.
+    pub flight: Option<bool>,
+    /// m/s², acting along −Z. Default 9.81 with flight.
+    pub gravity: Option<f64>,
+    /// Impacts followed per sample (default 1).
+    pub bounces: Option<u32>,
+    /// Stop bouncing when the kinetic energy after an impact falls below
+    /// this fraction of the initial kinetic energy (default 1e-4).
+    pub energy_floor: Option<f64>,
+    /// Largest RK4 step of torque-free rotation for triaxial bodies (s;
+    /// axisymmetric bodies use the exact precession). Default 1e-3.
+    pub flight_step: Option<f64>,
+    /// Time-of-impact tolerance (m): the advancement stops within it.
+    /// Default: the contact tolerance.
+    pub toi_tolerance: Option<f64>,
+    /// Longest flight searched for the next impact (s). Default 10.
+    pub horizon: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]

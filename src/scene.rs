@@ -84,6 +84,9 @@ pub struct Scene {
     touching: Vec<usize>,
     /// X0 = Σ_i placement[i] · (h_i − e_i) over the touching planes.
     placement: Vec<DVec3>,
+    /// A drop scene's box of start positions of the centre.
+    drop: Option<(DVec3, DVec3)>,
+    effects: Effects,
     orientation: OrientationDist,
     velocity: VectorDist,
     angular_velocity: VectorDist,
@@ -275,8 +278,59 @@ impl Scene {
                 plane,
             });
         }
-        let touching = Self::resolve_touching(&raw, &planes)?;
-        let placement = Self::solve_placement(&raw, &planes, &touching)?;
+        let drop = match &raw.placement.drop {
+            None => None,
+            Some(d) => {
+                if !raw.placement.touching.is_empty() {
+                    return Err(bad(
+                        &["placement"],
+                        format!(
+                            "give either touching or drop, not both (touching = {:?})",
+                            raw.placement.touching
+                        ),
+                    ));
+                }
+                let lo = finite3(&["placement", "drop", "min"], d.min)?;
+                let hi = finite3(&["placement", "drop", "max"], d.max)?;
+                if lo.cmpgt(hi).any() {
+                    return Err(bad(
+                        &["placement", "drop"],
+                        format!(
+                            "min must be ≤ max componentwise, got min {:?}, max {:?}",
+                            d.min, d.max
+                        ),
+                    ));
+                }
+                // Every start must be clear of every plane whatever the
+                // orientation: the body fits in a ball of its largest semi-axis.
+                let reach = body.length_scale();
+                for p in &planes {
+                    let n = p.plane.normal();
+                    let corner = DVec3::select(n.cmpge(DVec3::ZERO), lo, hi);
+                    let d = p.plane.signed_distance(corner);
+                    if !(d > reach) {
+                        return Err(bad(
+                            &["placement", "drop"],
+                            format!(
+                                "impossible placement: the drop box comes within {d} m of plane {:?} (its corner {:?}), but the body reaches {reach} m from its centre; raw value min {:?}, max {:?}",
+                                p.name,
+                                corner.to_array(),
+                                lo.to_array(),
+                                hi.to_array()
+                            ),
+                        ));
+                    }
+                }
+                Some((lo, hi))
+            }
+        };
+        let (touching, placement) = if drop.is_some() {
+            (Vec::new(), Vec::new())
+        } else {
+            let touching = Self::resolve_touching(&raw, &planes)?;
+            let placement = Self::solve_placement(&raw, &planes, &touching)?;
+            (touching, placement)
+        };
         let length_scale = planes
             .iter()
             .map(|p| p.plane.offset().abs())
@@ -328,6 +382,7 @@ impl Scene {
                 OrientationDist::BryanUniform { low, high }
             }
         };
+        let effects = Effects::derive(&raw, &body, &planes, &touching, drop.is_some(), tolerance)?;
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
         Self::check_ranges(&body, precision, velocity, angular_velocity, length_scale)?;
@@ -347,6 +402,8 @@ impl Scene {
             planes,
             touching,
             placement,
+            drop,
+            effects,
             orientation,
             velocity,
             angular_velocity,
@@ -489,6 +546,14 @@ impl Scene {
     pub fn name(&self) -> &str {
         &self.name
     }
+    /// The box of start positions of a drop scene.
+    pub fn drop_box(&self) -> Option<(DVec3, DVec3)> {
+        self.drop
+    }
+    /// The effects this scene simulates, declared and derived.
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
     pub fn samples(&self) -> u64 {
         self.samples
     }
@@ -615,4 +680,180 @@ pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<Scene, SceneErro
     let mut raw = Scene::parse(&file, &text)?;
     overrides.apply(&mut raw);
     Scene::validate(&file, &text, raw)
+}
+
+/// What a scene simulates: the effects it declares (`[effects]`, the
+/// placement) and those derived from its geometry. Printed at the start of a
+/// run and stored in the manifest.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Effects {
+    /// Rotation couples to the impulse (false for spheres: ρ = 0, ω is
+    /// untouched by impacts).
+    pub rotational_coupling: bool,
+    /// An LCP couples the contacts (false with one touching plane, or when
+    /// G is diagonal by geometry: a sphere on mutually orthogonal planes).
+    pub coupled_contacts: bool,
+    /// Flight under gravity before and between impacts.
+    pub flight: bool,
+    pub gravity: f64,
+    /// Impacts followed per sample.
+    pub bounces: u32,
+    pub energy_floor: f64,
+    pub flight_step: f64,
+    pub toi_tolerance: f64,
+    pub horizon: f64,
+    /// Torque-free rotation in flight: "none", "precession" (exact, a = b)
+    /// or "rk4".
+    pub flight_rotation: &'static str,
+    /// Per-sample rows requested.
+    pub per_sample: bool,
+}
+
+impl Effects {
+    fn derive(
+        raw: &RawScene,
+        body: &Ellipsoid,
+        planes: &[NamedPlane],
+        touching: &[usize],
+        drop: bool,
+        tolerance: f64,
+    ) -> Result<Self, Bad> {
+        let e = raw.effects.clone().unwrap_or_default();
+        let flight = e.flight.unwrap_or(drop);
+        if flight && !drop {
+            return Err(bad(
+                &["effects", "flight"],
+                "flight = true needs placement.drop (a touching placement starts at contact)",
+            ));
+        }
+        if !flight && drop {
+            return Err(bad(
+                &["effects", "flight"],
+                "flight = false contradicts placement.drop",
+            ));
+        }
+        let positive = |path: &[&str], v: Option<f64>, default: f64| -> Result<f64, Bad> {
+            let x = v.unwrap_or(default);
+            if x.is_finite() && x > 0.0 {
+                Ok(x)
+            } else {
+                Err(bad(path, format!("must be a finite number > 0, got {x}")))
+            }
+        };
+        let gravity = match e.gravity {
+            Some(g) if !(g.is_finite() && g >= 0.0) => {
+                return Err(bad(
+                    &["effects", "gravity"],
+                    format!("must be a finite number ≥ 0 (m/s²), got {g}"),
+                ))
+            }
+            Some(g) => g,
+            None if flight => 9.81,
+            None => 0.0,
+        };
+        if !flight && (e.gravity.is_some() || e.bounces.is_some()) {
+            return Err(bad(
+                &["effects"],
+                "gravity and bounces need flight (placement.drop)",
+            ));
+        }
+        let bounces = e.bounces.unwrap_or(1);
+        if bounces == 0 || bounces > 10_000 {
+            return Err(bad(
+                &["effects", "bounces"],
+                format!("must be in 1..=10000, got {bounces}"),
+            ));
+        }
+        let energy_floor = match e.energy_floor {
+            Some(f) if !(f.is_finite() && (0.0..1.0).contains(&f)) => {
+                return Err(bad(
+                    &["effects", "energy_floor"],
+                    format!("must be in [0, 1), got {f}"),
+                ))
+            }
+            Some(f) => f,
+            None => 1e-4,
+        };
+        let flight_step = positive(&["effects", "flight_step"], e.flight_step, 1e-3)?;
+        let toi_tolerance = positive(
+            &["effects", "toi_tolerance"],
+            e.toi_tolerance,
+            tolerance.max(1e-12),
+        )?;
+        if toi_tolerance > tolerance.max(1e-12) {
+            return Err(bad(
+                &["effects", "toi_tolerance"],
+                format!(
+                    "must not exceed contact_tolerance ({tolerance:e} m), got {toi_tolerance:e}"
+                ),
+            ));
+        }
+        let horizon = positive(&["effects", "horizon"], e.horizon, 10.0)?;
+        let s = body.semi_axes();
+        let sphere = body.is_sphere();
+        let orthogonal = touching.iter().enumerate().all(|(a, &i)| {
+            touching[a + 1..]
+                .iter()
+                .all(|&j| planes[i].plane.normal().dot(planes[j].plane.normal()) == 0.0)
+        });
+        let coupled = if flight {
+            // Which planes meet at an impact is decided in flight.
+            planes.len() > 1 && !(sphere && orthogonal_all(planes))
+        } else {
+            touching.len() > 1 && !(sphere && orthogonal)
+        };
+        Ok(Self {
+            rotational_coupling: !sphere,
+            coupled_contacts: coupled,
+            flight,
+            gravity,
+            bounces,
+            energy_floor,
+            flight_step,
+            toi_tolerance,
+            horizon,
+            flight_rotation: if !flight {
+                "none"
+            } else if s.x == s.y {
+                "precession"
+            } else {
+                "rk4"
+            },
+            per_sample: raw.output.as_ref().is_some_and(|o| o.per_sample),
+        })
+    }
+
+    /// One line for the terminal.
+    pub fn line(&self) -> String {
+        let mut on = Vec::new();
+        let mut off = Vec::new();
+        for (name, x) in [
+            ("rotational coupling", self.rotational_coupling),
+            ("coupled contacts (LCP)", self.coupled_contacts),
+            ("flight", self.flight),
+            ("per-sample rows", self.per_sample),
+        ] {
+            if x {
+                on.push(name)
+            } else {
+                off.push(name)
+            }
+        }
+        let mut s = format!("effects: on [{}]; off [{}]", on.join(", "), off.join(", "));
+        if self.flight {
+            s.push_str(&format!(
+                "; gravity {} m/s², up to {} bounce(s), rotation in flight: {}",
+                self.gravity, self.bounces, self.flight_rotation
+            ));
+        }
+        s
+    }
+}
+
+fn orthogonal_all(planes: &[NamedPlane]) -> bool {
+    planes.iter().enumerate().all(|(a, p)| {
+        planes[a + 1..]
+            .iter()
+            .all(|q| p.plane.normal().dot(q.plane.normal()) == 0.0)
+    })
 }

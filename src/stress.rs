@@ -104,7 +104,10 @@ fn scene(
         batch_size: None,
         body: RawBody { semi_axes, mass },
         planes,
-        placement: RawPlacement { touching },
+        placement: RawPlacement {
+            touching,
+            drop: None,
+        },
         orientation,
         velocity,
         angular_velocity: omega,
@@ -112,6 +115,7 @@ fn scene(
         output: None,
         material: None,
         accuracy: None,
+        effects: None,
     };
     Scene::validate("(stress)", "", raw).expect("stress scenes are valid")
 }

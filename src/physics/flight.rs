@@ -169,18 +169,43 @@ pub fn time_of_impact(
     let w_bound = (2.0 * t_rot / j.min_element()).sqrt();
     let mut t = 0.0;
     let mut m = *start;
+    // A plane the body starts on and leaves (just after an impact) is not an
+    // impact; it is armed again once clear of the tolerance, and an impact
+    // if it turns back toward the body while still within it.
+    let mut armed: Vec<bool> = planes
+        .iter()
+        .map(|p| {
+            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
+            g.distance > tolerance || g.normal_velocity(p, m.velocity, m.omega) < 0.0
+        })
+        .collect();
     for iterations in 0..100_000u32 {
         let r = m.rotation;
-        let distances: Vec<f64> = planes
+        let geo: Vec<ContactGeometry> = planes
             .iter()
-            .map(|p| ContactGeometry::new(body, r, m.centre, p).distance)
+            .map(|p| ContactGeometry::new(body, r, m.centre, p))
             .collect();
-        let d = distances.iter().cloned().fold(f64::INFINITY, f64::min);
-        if d <= tolerance {
+        let mut hit = false;
+        let mut gap = f64::INFINITY;
+        for ((p, g), a) in planes.iter().zip(&geo).zip(armed.iter_mut()) {
+            if !*a && g.distance > tolerance {
+                *a = true;
+            }
+            if *a {
+                hit |= g.distance <= tolerance;
+                gap = gap.min(g.distance - 0.5 * tolerance);
+            } else {
+                hit |= g.normal_velocity(p, m.velocity, m.omega) < 0.0;
+                // It may dip at most one tolerance below zero before it is
+                // caught: within contact_tolerance, so it impacts then.
+                gap = gap.min(g.distance + tolerance);
+            }
+        }
+        if hit {
             return Some(Impact {
                 time: t,
                 motion: m,
-                distances,
+                distances: geo.iter().map(|g| g.distance).collect(),
                 iterations,
             });
         }
@@ -188,14 +213,14 @@ pub fn time_of_impact(
             return None;
         }
         // Closing-speed bound over a step dt: |n·v| + g dt + |ω| reach. Solve
-        // (s + g dt) dt = d_gap for dt with s the speed bound at the start.
+        // (s + g dt) dt = gap for dt with s the speed bound at the start.
         let g = gravity.length();
         let s = planes
             .iter()
             .map(|p| (-p.normal().dot(m.velocity)).max(0.0))
             .fold(0.0, f64::max)
             + w_bound * reach;
-        let gap = d - 0.5 * tolerance;
+        let gap = gap.max(0.0);
         let dt = if g > 0.0 {
             2.0 * gap / (s + (s * s + 4.0 * g * gap).sqrt())
         } else if s > 0.0 {
