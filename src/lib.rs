@@ -10,6 +10,7 @@
 pub mod accuracy;
 pub mod case;
 pub mod config;
+pub mod drop;
 pub mod engine;
 pub mod kernel;
 pub mod lanes;

@@ -218,6 +218,42 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     // Validate the scene (every sweep point) and the folder before any work.
     let (_, points) = plan(&path, &overrides).map_err(|e| bad_input(e.to_string()))?;
     let name = points[0].scene.name().to_string();
+    // The effect set, before any work (stderr: stdout may be JSON).
+    eprintln!("{}", points[0].scene.effects().line());
+    if points[0].scene.drop_box().is_some() {
+        if points.len() > 1 || shard.is_some() || points[0].scene.effects().per_sample {
+            return Err(bad_input(format!(
+                "{}: drop scenes (placement.drop) do not support sweeps, --shard or per-sample rows yet",
+                path.display()
+            )));
+        }
+        let dir = args
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(&name));
+        prepare_dir(&dir, args.force).map_err(|e| bad_input(e.to_string()))?;
+        let scene = &points[0].scene;
+        let started = std::time::SystemTime::now();
+        let run = impactmc::drop::run_drop(scene, args.threads).map_err(|e| Failure {
+            code: 1,
+            message: e.to_string(),
+        })?;
+        impactmc::drop::write_outputs(&run, scene, &dir, started).map_err(|e| Failure {
+            code: 1,
+            message: e.to_string(),
+        })?;
+        match args.format {
+            Format::Text => {
+                emit(&run.text(scene));
+                emit(&format!("\nwrote {}\n", dir.display()));
+            }
+            Format::Json => emit(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&run.summary_json(scene)).expect("serialisable")
+            )),
+        }
+        return Ok(());
+    }
     let dir = args.out.clone().unwrap_or_else(|| match shard {
         Some(s) => {
             PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))

@@ -59,6 +59,9 @@ pub struct Manifest {
     pub threads: usize,
     pub machine: Machine,
     pub files: Vec<String>,
+    /// The effects simulated, declared and derived (scene.rs `Effects`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effects: Option<crate::scene::Effects>,
     /// A shard run (`--shard I/N`): its index and count.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shard: Option<ShardRef>,

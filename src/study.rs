@@ -386,6 +386,7 @@ impl Study {
             threads: self.points[0].result.threads,
             machine: Machine::current(),
             files,
+            effects: Some(self.points[0].scene.effects().clone()),
             shard: shard_ref,
             merge: self.merge.clone(),
         };

@@ -167,6 +167,13 @@ pub fn time_of_impact(
     let j = body.inertia();
     let t_rot = 0.5 * (j * start.omega * start.omega).element_sum();
     let w_bound = (2.0 * t_rot / j.min_element()).sqrt();
+    // |d²h/dt²| ≤ |ω|² a²/c + a(|ω|² + |ω̇|) for the support distance h
+    // (a, c the largest and smallest semi-axes; |ω̇| from Euler's equations).
+    let semi = body.semi_axes();
+    let (a_max, a_min) = (semi.max_element(), semi.min_element());
+    let j_spread = (j.max_element() - j.min_element()) / j.min_element();
+    let w2 = w_bound * w_bound;
+    let curvature = w2 * a_max * a_max / a_min + a_max * (w2 + w2 * j_spread);
     let mut t = 0.0;
     let mut m = *start;
     // A plane the body starts on and leaves (just after an impact) is not an
@@ -186,20 +193,45 @@ pub fn time_of_impact(
             .map(|p| ContactGeometry::new(body, r, m.centre, p))
             .collect();
         let mut hit = false;
-        let mut gap = f64::INFINITY;
+        // Each plane bounds its own step: its gap closes at most at
+        // max(0, −n·v) + |ω| reach, plus max(0, −n·g) t (gravity along the
+        // wall's normal only), so a plane the body moves away from does not
+        // hold the others back.
+        let mut dt = f64::INFINITY;
         for ((p, g), a) in planes.iter().zip(&geo).zip(armed.iter_mut()) {
             if !*a && g.distance > tolerance {
                 *a = true;
             }
-            if *a {
+            let gap = if *a {
                 hit |= g.distance <= tolerance;
-                gap = gap.min(g.distance - 0.5 * tolerance);
+                g.distance - 0.5 * tolerance
             } else {
                 hit |= g.normal_velocity(p, m.velocity, m.omega) < 0.0;
                 // It may dip at most one tolerance below zero before it is
                 // caught: within contact_tolerance, so it impacts then.
-                gap = gap.min(g.distance + tolerance);
+                g.distance + tolerance
             }
+            .max(0.0);
+            let n = p.normal();
+            let s = (-n.dot(m.velocity)).max(0.0) + w_bound * reach;
+            let acc = (-n.dot(gravity)).max(0.0);
+            // Largest dt with (s + acc·dt)·dt ≤ gap.
+            let linear = if acc > 0.0 {
+                2.0 * gap / (s + (s * s + 4.0 * acc * gap).sqrt())
+            } else if s > 0.0 {
+                gap / s
+            } else {
+                f64::INFINITY
+            };
+            // Second bound, from the gap's actual rate ḋ = v_n (the support
+            // point's normal velocity) and a bound on its second derivative:
+            // d(t+τ) ≥ d − c τ − ½ B τ². Near contact it converges like
+            // Newton's method. Either bound alone is safe, so the larger
+            // step is.
+            let c = (-g.normal_velocity(p, m.velocity, m.omega)).max(0.0);
+            let b = acc + curvature;
+            let quadratic = 2.0 * gap / (c + (c * c + 2.0 * b * gap).sqrt());
+            dt = dt.min(linear.max(quadratic));
         }
         if hit {
             return Some(Impact {
@@ -209,25 +241,9 @@ pub fn time_of_impact(
                 iterations,
             });
         }
-        if t >= horizon {
+        if t >= horizon || !dt.is_finite() && horizon.is_infinite() {
             return None;
         }
-        // Closing-speed bound over a step dt: |n·v| + g dt + |ω| reach. Solve
-        // (s + g dt) dt = gap for dt with s the speed bound at the start.
-        let g = gravity.length();
-        let s = planes
-            .iter()
-            .map(|p| (-p.normal().dot(m.velocity)).max(0.0))
-            .fold(0.0, f64::max)
-            + w_bound * reach;
-        let gap = gap.max(0.0);
-        let dt = if g > 0.0 {
-            2.0 * gap / (s + (s * s + 4.0 * g * gap).sqrt())
-        } else if s > 0.0 {
-            gap / s
-        } else {
-            return None;
-        };
         let dt = dt.min(horizon - t).max(0.0);
         m = advance(body, &m, gravity, rotation, dt);
         t += dt;
