@@ -139,7 +139,8 @@ pub struct RawEffects {
     /// Impacts followed per sample (default 1).
     pub bounces: Option<u32>,
     /// Stop bouncing when the kinetic energy after an impact falls below
-    /// this fraction of the initial kinetic energy (default 1e-4).
+    /// this fraction of the kinetic energy at the first impact (default
+    /// 1e-4).
     pub energy_floor: Option<f64>,
     /// Largest RK4 step of torque-free rotation for triaxial bodies (s;
     /// axisymmetric bodies use the exact precession). Default 1e-3.

@@ -2,7 +2,8 @@
 //! box with its drawn orientation and velocities, flies under gravity with
 //! torque-free rotation, hits the planes (time of impact by conservative
 //! advancement), and bounces up to `effects.bounces` times or until its
-//! kinetic energy falls below `effects.energy_floor` of the initial.
+//! kinetic energy after an impact falls below `effects.energy_floor` of the
+//! kinetic energy it brought to its first impact.
 //!
 //! This path is scalar f64 per sample (the f64 reference physics), in
 //! parallel over batches with the same counter-based draws as the engine,
@@ -15,9 +16,7 @@ use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 use crate::lanes::{CounterRng, Real};
-use crate::physics::{
-    kinetic_energy, solve_impact, time_of_impact, Law, Motion, Plane, Pose, Rotation, State,
-};
+use crate::physics::{solve_impact, time_of_impact, Law, Motion, Plane, Pose, Rotation, State};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::stats::Moments;
@@ -149,7 +148,8 @@ fn simulate(scene: &Scene, law: Law, start: Motion, acc: &mut DropAcc) {
     let body = scene.body();
     let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
     let rotation = Rotation::for_body(body, fx.flight_step);
-    let t0 = kinetic_energy(body, start.velocity, start.omega);
+    // The energy floor is relative to the kinetic energy of the first impact.
+    let mut t0 = f64::INFINITY;
     let mut m = start;
     let mut impacts = 0usize;
     let mut since = 0.0;
@@ -193,6 +193,9 @@ fn simulate(scene: &Scene, law: Law, start: Motion, acc: &mut DropAcc) {
         if mask == 0 {
             // Touched without approaching: fly on.
             continue;
+        }
+        if impacts == 0 {
+            t0 = o.energy_before;
         }
         let b = &mut acc.bounces[impacts];
         b.reached += 1;
