@@ -717,9 +717,11 @@ fn block_stats<T: Real, const N: usize>(
         for k in 0..3 {
             let xs = [&d.ratio, &d.omega, &d.speed][k];
             let mut other = false;
+            let mut negative = false;
             for s in 0..BLOCK {
                 bins[s] = LogHistogram::bin(xs[s]);
                 other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
+                negative |= (d.impacting[s] > 0.0) & (xs[s] < 0.0);
             }
             // Branch-free: every lane adds its weight (0 or 1) to its set's
             // table, so every set present in the block gets one.
@@ -736,11 +738,27 @@ fn block_stats<T: Real, const N: usize>(
                 }
             }
             if other {
-                for s in 0..count {
-                    if d.impacting[s] > 0.0 && !(xs[s] > 0.0) {
-                        group_stat(&mut la.groups[d.active[s] as usize], k)
-                            .hist
-                            .push(xs[s]);
+                // Exact zeros per contact set by compare-and-sum passes (a
+                // sphere's |ω⁺| is zero in every lane); negatives one by one.
+                for (m, g) in la.groups.iter_mut().enumerate() {
+                    if !present[m] {
+                        continue;
+                    }
+                    let mut zeros = 0u32;
+                    for s in 0..BLOCK {
+                        zeros += ((d.active[s] == m as u32)
+                            & (d.impacting[s] > 0.0)
+                            & (xs[s] == 0.0)) as u32;
+                    }
+                    group_stat(g, k).hist.add_zeros(zeros as u64);
+                }
+                if negative {
+                    for s in 0..count {
+                        if d.impacting[s] > 0.0 && xs[s] < 0.0 {
+                            group_stat(&mut la.groups[d.active[s] as usize], k)
+                                .hist
+                                .push(xs[s]);
+                        }
                     }
                 }
             }

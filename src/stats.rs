@@ -265,18 +265,23 @@ impl LogHistogram {
             return;
         }
         let mut idx = [0u16; B];
-        let mut other = false;
+        let mut negative = false;
+        let mut zeros = 0u64;
         for k in 0..B {
             idx[k] = bin_of(xs[k].abs()) as u16;
-            other |= (w[k] > 0.0) & !(xs[k] > 0.0);
+            negative |= (w[k] > 0.0) & (xs[k] < 0.0);
+            zeros += ((w[k] > 0.0) & (xs[k] == 0.0)) as u64;
         }
         let pos = self.positive_bins();
         for k in 0..B {
             pos[idx[k] as usize & (BINS - 1)] += ((w[k] > 0.0) & (xs[k] > 0.0)) as u64;
         }
-        if other {
+        // Exact zeros (a sphere's |ω⁺| = 0, an inactive plane's impulse)
+        // are counted in the vector pass; negatives are rare.
+        self.zero += zeros;
+        if negative {
             for k in 0..B {
-                if w[k] > 0.0 && !(xs[k] > 0.0) {
+                if w[k] > 0.0 && xs[k] < 0.0 {
                     self.push(xs[k]);
                 }
             }
@@ -292,6 +297,12 @@ impl LogHistogram {
             self.pos = vec![0; BINS];
         }
         (&mut self.pos[..]).try_into().expect("BINS counts")
+    }
+
+    /// Adds `n` exact zeros.
+    #[inline(always)]
+    pub fn add_zeros(&mut self, n: u64) {
+        self.zero += n;
     }
 
     /// Bin index of a positive value, below [`BINS`].
