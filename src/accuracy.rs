@@ -36,6 +36,11 @@ pub struct Knobs {
     pub sample_counts: Vec<u64>,
     pub timing_samples: u64,
     pub effective_modulus: f64,
+    /// Drop scenes: RK4 steps of flight rotation (s) and time-of-impact
+    /// tolerances (m) to compare; the reference is ten times finer than the
+    /// finest of each.
+    pub flight_steps: Vec<f64>,
+    pub toi_tolerances: Vec<f64>,
 }
 
 fn field_err(file: &str, field: &str, message: String) -> SceneError {
@@ -65,6 +70,14 @@ impl Knobs {
                 100_000_000,
             ]),
             timing_samples: a.timing_samples.unwrap_or(1_000_000),
+            flight_steps: a
+                .flight_steps
+                .clone()
+                .unwrap_or(vec![2e-2, 1e-2, 5e-3, 2e-3, 1e-3]),
+            toi_tolerances: a
+                .toi_tolerances
+                .clone()
+                .unwrap_or(vec![1e-2, 1e-3, 1e-5, 1e-7, 1e-9]),
             effective_modulus: raw
                 .material
                 .as_ref()
@@ -110,6 +123,18 @@ impl Knobs {
                 "accuracy.sample_counts",
                 format!("must list counts >= 2, got {:?}", k.sample_counts),
             ));
+        }
+        for (name, xs) in [
+            ("accuracy.flight_steps", &k.flight_steps),
+            ("accuracy.toi_tolerances", &k.toi_tolerances),
+        ] {
+            if xs.is_empty() || xs.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(field_err(
+                    file,
+                    name,
+                    format!("must list finite numbers > 0, got {xs:?}"),
+                ));
+            }
         }
         if k.timing_samples < 1000 {
             return Err(field_err(
@@ -265,6 +290,10 @@ pub struct Rung {
     pub vs_newton: Errors,
     /// Contact-point rung only: RMS and p99 of |ΔP| / length scale.
     pub point_error: Option<(f64, f64)>,
+    /// Flight rungs only (drop scenes): first-impact errors against the
+    /// finest flight settings, and RMS and p99 of the impact-time error (s).
+    pub vs_flight_reference: Option<Errors>,
+    pub time_error: Option<(f64, f64)>,
 }
 
 /// One point of the sample-count rung.
@@ -321,6 +350,9 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     let file = path.display().to_string();
     let base = load_scene(path, &Overrides::default())?;
     let knobs = Knobs::from_raw(&file, base.raw())?;
+    if base.drop_box().is_some() {
+        return Ok(flight_ladder(&base, knobs, progress));
+    }
     let n = knobs.samples;
     let newton64 = variant(path, vec!["newton".into()], "f64", knobs.timing_samples)?;
     let reference_outcomes = evaluate_samples(&newton64, Law::Newton, 0, n);
@@ -361,6 +393,8 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             vs_compliant: errors(&posts, &reference),
             vs_newton: errors(&posts, &newton_posts),
             point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
         });
     }
     for &steps in &knobs.compliant_steps {
@@ -374,6 +408,8 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             vs_compliant: errors(&posts, &reference),
             vs_newton: errors(&posts, &newton_posts),
             point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
         });
     }
     {
@@ -392,6 +428,8 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             vs_compliant: errors(&posts, &reference),
             vs_newton: errors(&posts, &newton_posts),
             point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
         });
     }
     rungs.extend(contact_point_rungs(&newton64, &inputs));
@@ -427,6 +465,130 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         rungs,
         counts,
     })
+}
+
+/// The flight rungs of a drop scene: the first impact of `knobs.samples`
+/// samples with each RK4 step of flight rotation and each time-of-impact
+/// tolerance, against a reference ten times finer than the finest of both
+/// (the scene's law). Cost: one-thread ns per sample of the first impact.
+pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)) -> Ladder {
+    use crate::drop::{first_impact, start_of};
+    use crate::lanes::CounterRng;
+    let law = scene.laws()[0];
+    let sampler = crate::sampler::Sampler::new(scene);
+    let boxes = CounterRng::new(scene.seed() ^ 0xd20b_0c5e_5eed_0001, 3);
+    let starts: Vec<_> = (0..knobs.samples as u64)
+        .map(|i| start_of(scene, &sampler, &boxes, i))
+        .collect();
+    let fine_step = knobs
+        .flight_steps
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+        / 10.0;
+    let fine_tol = knobs
+        .toi_tolerances
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+        / 10.0;
+    let run = |step: f64, tol: f64| -> (Vec<Option<(f64, DVec3, DVec3, f64)>>, f64) {
+        let timed = starts.len().min(200);
+        let t0 = Instant::now();
+        for s in &starts[..timed] {
+            std::hint::black_box(first_impact(scene, law, s, step, tol));
+        }
+        let ns = t0.elapsed().as_secs_f64() * 1e9 / timed as f64;
+        (
+            starts
+                .par_iter()
+                .map(|s| first_impact(scene, law, s, step, tol))
+                .collect(),
+            ns,
+        )
+    };
+    progress(&format!(
+        "flight reference: step {fine_step:e} s, TOI tolerance {fine_tol:e} m, {} samples",
+        knobs.samples
+    ));
+    let (reference, _) = run(fine_step, fine_tol);
+    let compare = |got: &[Option<(f64, DVec3, DVec3, f64)>]| -> (Errors, (f64, f64)) {
+        let mut a = Vec::new();
+        let mut b = Vec::new();
+        let mut dt = Vec::new();
+        for (x, y) in got.iter().zip(&reference) {
+            if let (Some(x), Some(y)) = (x, y) {
+                a.push(Post {
+                    v: x.1,
+                    w: x.2,
+                    ratio: x.3,
+                });
+                b.push(Post {
+                    v: y.1,
+                    w: y.2,
+                    ratio: y.3,
+                });
+                dt.push((x.0 - y.0).abs());
+            }
+        }
+        (errors(&a, &b), rms_p99(dt))
+    };
+    let default_tol = scene.effects().toi_tolerance;
+    let default_step = scene.effects().flight_step;
+    let mut rungs = Vec::new();
+    let nan = Errors {
+        v_rms: f64::NAN,
+        v_p99: f64::NAN,
+        w_rms: f64::NAN,
+        w_p99: f64::NAN,
+        ratio_rms: f64::NAN,
+        ratio_p99: f64::NAN,
+    };
+    for &step in &knobs.flight_steps {
+        let (got, ns) = run(step, default_tol);
+        let (e, t) = compare(&got);
+        progress(&format!(
+            "flight step {step:e} s: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
+            e.v_rms
+        ));
+        rungs.push(Rung {
+            family: "flight_step".into(),
+            rung: format!("step {step:e} s"),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: nan,
+            vs_newton: nan,
+            point_error: None,
+            vs_flight_reference: Some(e),
+            time_error: Some(t),
+        });
+    }
+    for &tol in &knobs.toi_tolerances {
+        let (got, ns) = run(default_step, tol);
+        let (e, t) = compare(&got);
+        progress(&format!(
+            "TOI tolerance {tol:e} m: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
+            e.v_rms
+        ));
+        rungs.push(Rung {
+            family: "toi_tolerance".into(),
+            rung: format!("toi {tol:e} m"),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: nan,
+            vs_newton: nan,
+            point_error: None,
+            vs_flight_reference: Some(e),
+            time_error: Some(t),
+        });
+    }
+    Ladder {
+        scene: scene.name().to_string(),
+        law_for_counts: law.name(),
+        knobs,
+        rungs,
+        counts: Vec::new(),
+    }
 }
 
 /// Closed-form support point against the paper's Lagrange route, on the
@@ -481,6 +643,8 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
             vs_compliant: nan,
             vs_newton: nan,
             point_error: Some((0.0, 0.0)),
+            vs_flight_reference: None,
+            time_error: None,
         },
         Rung {
             family: "contact_point".into(),
@@ -490,6 +654,8 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
             vs_compliant: nan,
             vs_newton: nan,
             point_error: Some((rms, p99)),
+            vs_flight_reference: None,
+            time_error: None,
         },
     ]
 }
@@ -575,6 +741,37 @@ impl Ladder {
         let [p0, p1] = point;
         columns.push(Column::new("point_error_rms".into(), p0));
         columns.push(Column::new("point_error_p99".into(), p1));
+        let fl = |f: &dyn Fn(&Rung) -> Option<f64>| -> Vec<Option<f64>> {
+            self.rungs
+                .iter()
+                .map(|r| f(r))
+                .chain(self.counts.iter().map(|_| None))
+                .collect()
+        };
+        columns.push(Column::new(
+            "v_after_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.v_rms)),
+        ));
+        columns.push(Column::new(
+            "v_after_p99_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.v_p99)),
+        ));
+        columns.push(Column::new(
+            "omega_after_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.w_rms)),
+        ));
+        columns.push(Column::new(
+            "energy_ratio_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.ratio_rms)),
+        ));
+        columns.push(Column::new(
+            "impact_time_rms_error".into(),
+            fl(&|r| r.time_error.map(|t| t.0)),
+        ));
+        columns.push(Column::new(
+            "impact_time_p99_error".into(),
+            fl(&|r| r.time_error.map(|t| t.1)),
+        ));
         columns.push(Column::new("wall_seconds".into(), wall));
         columns.push(Column::new("energy_ratio_mean".into(), mean));
         columns.push(Column::new("energy_ratio_ci95".into(), ci));
@@ -588,6 +785,35 @@ impl Ladder {
             "# Accuracy ladder: {}\n\n{header}\n\n",
             self.scene
         ));
+        if self.rungs.iter().any(|r| r.vs_flight_reference.is_some()) {
+            s.push_str(&format!(
+                "Drop scene: the first impact of the same {} samples with each flight setting, against a reference ten times finer than the finest step and tolerance. Errors: RMS and p99 of |Δv⁺| (m/s), RMS of |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|, and of the impact time (s). Cost: one-thread ns per sample (flight, time of impact and impact).\n\n| rung | ns/sample | v⁺ RMS | v⁺ p99 | ω⁺ RMS | T⁺/T⁻ RMS | impact time RMS | impact time p99 |\n|---|---|---|---|---|---|---|---|\n",
+                self.knobs.samples
+            ));
+            let g = |x: f64| {
+                if x.is_finite() {
+                    format!("{x:.2e}")
+                } else {
+                    "–".into()
+                }
+            };
+            for r in &self.rungs {
+                if let (Some(e), Some(t)) = (r.vs_flight_reference, r.time_error) {
+                    s.push_str(&format!(
+                        "| {} | {:.0} | {} | {} | {} | {} | {} | {} |\n",
+                        r.rung,
+                        r.ns_per_sample,
+                        g(e.v_rms),
+                        g(e.v_p99),
+                        g(e.w_rms),
+                        g(e.ratio_rms),
+                        g(t.0),
+                        g(t.1)
+                    ));
+                }
+            }
+            return s;
+        }
         s.push_str(&format!(
             "Errors over the same {} samples, against the finest compliant run ({} RK4 steps per contact, E* = {:e} Pa) and against the exact Newton LCP in f64: RMS and p99 of |Δv⁺| (m/s), |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|. Cost: end-to-end ns per sample on one thread (rigid laws: a timed run of {} samples with sampling and statistics; compliant: the integration alone).\n\n",
             self.knobs.samples, self.knobs.reference_steps, self.knobs.effective_modulus, self.knobs.timing_samples
@@ -704,13 +930,32 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
         let (lo, hi) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
         (lo / 2.0, hi * 2.0)
     };
-    let (x0, x1) = span(&mut pts.iter().map(|r| r.ns_per_sample));
+    // Drop scenes: flight rungs against the finest flight settings.
+    let flight: Vec<(&Rung, f64)> = ladder
+        .rungs
+        .iter()
+        .filter_map(|r| {
+            let e = r.vs_flight_reference?.v_rms;
+            (e.is_finite() && e > 0.0).then_some((r, e))
+        })
+        .collect();
+    let (x0, x1) = span(
+        &mut pts
+            .iter()
+            .chain(vs_newton.iter())
+            .map(|r| r.ns_per_sample)
+            .chain(flight.iter().map(|(r, _)| r.ns_per_sample)),
+    );
     let (y0, y1) = span(
         &mut pts
             .iter()
             .map(|r| r.vs_compliant.v_rms)
-            .chain(vs_newton.iter().map(|r| r.vs_newton.v_rms)),
+            .chain(vs_newton.iter().map(|r| r.vs_newton.v_rms))
+            .chain(flight.iter().map(|(_, e)| *e)),
     );
+    if !(x0 < x1 && y0 < y1) {
+        return Err("nothing to plot: every rung's error is zero or missing".into());
+    }
     let mut chart = ChartBuilder::on(&left)
         .caption(
             format!("{}: error vs cost per rung", ladder.scene),
@@ -792,6 +1037,25 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
             .legend(move |(x, y)| {
                 Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], colour.stroke_width(1))
             });
+    }
+    for (family, colour) in [("flight_step", CYAN), ("toi_tolerance", BLACK)] {
+        let elems: Vec<_> = flight
+            .iter()
+            .filter(|(r, _)| r.family == family)
+            .map(|(r, y)| {
+                EmptyElement::at((r.ns_per_sample, *y))
+                    + TriangleMarker::new((0, 0), 5, colour.filled())
+                    + Text::new(label_for(r, *y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        if elems.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs finest flight"))
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, colour.filled()));
     }
     chart
         .configure_series_labels()

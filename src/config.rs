@@ -72,6 +72,10 @@ pub struct RawAccuracy {
     pub sample_counts: Option<Vec<u64>>,
     /// Samples of each law's timing run (one thread, end to end).
     pub timing_samples: Option<u64>,
+    /// Drop scenes: RK4 steps of flight rotation to compare (s).
+    pub flight_steps: Option<Vec<f64>>,
+    /// Drop scenes: time-of-impact tolerances to compare (m).
+    pub toi_tolerances: Option<Vec<f64>>,
 }
 
 /// What a run writes beyond the summary tables.

@@ -579,3 +579,56 @@ pub fn write_outputs(
     staging.write_json("manifest.json", &manifest)?;
     staging.commit()
 }
+
+/// A sample's first impact with the given flight knobs (for the accuracy
+/// ladder): the time from release and the post-impact velocities and energy
+/// ratio. Planes within the larger of the contact and time-of-impact
+/// tolerances take part. `None` if nothing is hit within the horizon, the
+/// impact cannot be solved, or no plane takes an impulse.
+pub fn first_impact(
+    scene: &Scene,
+    law: Law,
+    start: &Motion,
+    flight_step: f64,
+    toi_tolerance: f64,
+) -> Option<(f64, DVec3, DVec3, f64)> {
+    let fx = scene.effects();
+    let planes: Vec<Plane> = scene.planes().iter().map(|p| p.plane).collect();
+    let body = scene.body();
+    let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
+    let rotation = Rotation::for_body(body, flight_step);
+    let hit = time_of_impact(
+        body,
+        start,
+        &planes,
+        gravity,
+        rotation,
+        toi_tolerance,
+        fx.horizon,
+    )?;
+    let m = hit.motion;
+    let o = solve_impact(
+        body,
+        Pose {
+            rotation: m.rotation,
+            centre: m.centre,
+        },
+        State {
+            velocity: m.velocity,
+            omega: m.omega,
+        },
+        &planes,
+        law,
+        scene.tolerance().max(toi_tolerance),
+    )
+    .ok()?;
+    if o.contacts.iter().all(|c| c.impulse <= 0.0) {
+        return None;
+    }
+    Some((
+        hit.time,
+        o.after.velocity,
+        o.after.omega,
+        o.energy_after / o.energy_before,
+    ))
+}

@@ -277,3 +277,33 @@ fn accuracy_command_writes_table_plot_and_parquet() {
         "{err}"
     );
 }
+
+/// Drop scenes: the flight rungs. The first impact's error against the
+/// finest flight settings falls as the RK4 step shrinks (to the floor set by
+/// the default time-of-impact tolerance) and as the TOI tolerance shrinks.
+#[test]
+fn flight_rungs_converge_with_step_and_tolerance() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/drop_corner.toml");
+    let s = load_scene(&path, &Overrides::default()).unwrap();
+    let mut knobs = impactmc::accuracy::Knobs::from_raw("drop_corner.toml", s.raw()).unwrap();
+    knobs.samples = 300;
+    knobs.flight_steps = vec![4e-2, 2e-2, 1e-2, 5e-3];
+    knobs.toi_tolerances = vec![1e-4, 1e-6, 1e-8];
+    let ladder = impactmc::accuracy::flight_ladder(&s, knobs, &mut |_| {});
+    let errs = |family: &str| -> Vec<f64> {
+        ladder
+            .rungs
+            .iter()
+            .filter(|r| r.family == family)
+            .map(|r| r.vs_flight_reference.unwrap().v_rms)
+            .collect()
+    };
+    let steps = errs("flight_step");
+    let tols = errs("toi_tolerance");
+    assert_eq!((steps.len(), tols.len()), (4, 3));
+    assert!(steps.windows(2).all(|w| w[1] < w[0]), "{steps:?}");
+    // RK4: a halved step cuts the rotation error by about 16 before the floor.
+    assert!(steps[0] / steps[1] > 8.0, "{steps:?}");
+    assert!(tols.windows(2).all(|w| w[1] < w[0]), "{tols:?}");
+    assert!(tols[0] > 1e-6 && tols[2] < 1e-6, "{tols:?}");
+}
