@@ -467,6 +467,9 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     })
 }
 
+/// Time, v⁺, ω⁺ and energy ratio of a first impact.
+type FirstImpact = (f64, DVec3, DVec3, f64);
+
 /// The flight rungs of a drop scene: the first impact of `knobs.samples`
 /// samples with each RK4 step of flight rotation and each time-of-impact
 /// tolerance, against a reference ten times finer than the finest of both
@@ -492,7 +495,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         .cloned()
         .fold(f64::INFINITY, f64::min)
         / 10.0;
-    let run = |step: f64, tol: f64| -> (Vec<Option<(f64, DVec3, DVec3, f64)>>, f64) {
+    let run = |step: f64, tol: f64| -> (Vec<Option<FirstImpact>>, f64) {
         let timed = starts.len().min(200);
         let t0 = Instant::now();
         for s in &starts[..timed] {
@@ -512,7 +515,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         knobs.samples
     ));
     let (reference, _) = run(fine_step, fine_tol);
-    let compare = |got: &[Option<(f64, DVec3, DVec3, f64)>]| -> (Errors, (f64, f64)) {
+    let compare = |got: &[Option<FirstImpact>]| -> (Errors, (f64, f64)) {
         let mut a = Vec::new();
         let mut b = Vec::new();
         let mut dt = Vec::new();
@@ -744,7 +747,7 @@ impl Ladder {
         let fl = |f: &dyn Fn(&Rung) -> Option<f64>| -> Vec<Option<f64>> {
             self.rungs
                 .iter()
-                .map(|r| f(r))
+                .map(f)
                 .chain(self.counts.iter().map(|_| None))
                 .collect()
         };
