@@ -458,6 +458,14 @@ fn inspect(dir: &std::path::Path, format: Format) -> Result<(), Failure> {
                 m["machine"]["hostname"].as_str().unwrap_or("?"),
                 m["files"].as_array().map(|f| f.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default(),
             ));
+            if summary["effects"]["flight"] == serde_json::Value::Bool(true) {
+                // A drop study: its summary has its own shape (per bounce).
+                emit(&format!(
+                    "\n{}\n",
+                    serde_json::to_string_pretty(&summary).expect("serialisable")
+                ));
+                return Ok(());
+            }
             let summaries: Vec<(String, impactmc::summary::Summary)> = match summary.get("points") {
                 Some(points) => points
                     .as_array()

@@ -244,4 +244,16 @@ fn drop_corner_from_the_command_line() {
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["effects"]["flight"], true);
+    // `inspect` reads a drop folder too.
+    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+        .arg("inspect")
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("\"bounces\""));
 }
