@@ -1,7 +1,8 @@
 //! The Monte Carlo run: batches of samples in parallel (rayon), each batch a
 //! sequence of SoA blocks through sampler → kernel → accumulators; batch
-//! results are merged in batch order, so the answer does not depend on the
-//! thread count or the scheduling.
+//! results are merged along a fixed tree over batch indices ([`Node`]), so
+//! the answer depends neither on the thread count and scheduling nor on how
+//! the batches are split into shards.
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
