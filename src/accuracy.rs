@@ -176,6 +176,18 @@ pub struct Errors {
     pub ratio_p99: f64,
 }
 
+impl Errors {
+    /// For rungs a reference does not apply to (NaN, null in the table).
+    pub const NONE: Errors = Errors {
+        v_rms: f64::NAN,
+        v_p99: f64::NAN,
+        w_rms: f64::NAN,
+        w_p99: f64::NAN,
+        ratio_rms: f64::NAN,
+        ratio_p99: f64::NAN,
+    };
+}
+
 fn rms_p99(mut xs: Vec<f64>) -> (f64, f64) {
     if xs.is_empty() {
         return (f64::NAN, f64::NAN);
@@ -539,14 +551,6 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
     let default_tol = scene.effects().toi_tolerance;
     let default_step = scene.effects().flight_step;
     let mut rungs = Vec::new();
-    let nan = Errors {
-        v_rms: f64::NAN,
-        v_p99: f64::NAN,
-        w_rms: f64::NAN,
-        w_p99: f64::NAN,
-        ratio_rms: f64::NAN,
-        ratio_p99: f64::NAN,
-    };
     for &step in &knobs.flight_steps {
         let (got, ns) = run(step, default_tol);
         let (e, t) = compare(&got);
@@ -559,8 +563,8 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             rung: format!("step {step:e} s"),
             precision: "f64".into(),
             ns_per_sample: ns,
-            vs_compliant: nan,
-            vs_newton: nan,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -578,8 +582,8 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             rung: format!("toi {tol:e} m"),
             precision: "f64".into(),
             ns_per_sample: ns,
-            vs_compliant: nan,
-            vs_newton: nan,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -598,11 +602,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
 /// touching planes of every sample: error of the Lagrange point relative to
 /// the closed form (in units of the body's length scale), and time per call.
 pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung> {
-    let planes: Vec<_> = scene
-        .touching()
-        .iter()
-        .map(|&i| scene.planes()[i].plane)
-        .collect();
+    let planes = scene.touching_planes();
     let body = scene.body();
     let l = body.length_scale();
     let mut errs = Vec::new();
@@ -629,22 +629,14 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
     let closed = time(&|pose, p| ContactGeometry::new(body, pose.rotation, pose.centre, p).point);
     let lagrange = time(&|pose, p| support_point_lagrange(body, pose.rotation, pose.centre, p).0);
     let (rms, p99) = rms_p99(errs);
-    let nan = Errors {
-        v_rms: f64::NAN,
-        v_p99: f64::NAN,
-        w_rms: f64::NAN,
-        w_p99: f64::NAN,
-        ratio_rms: f64::NAN,
-        ratio_p99: f64::NAN,
-    };
     vec![
         Rung {
             family: "contact_point".into(),
             rung: "closed_form".into(),
             precision: "f64".into(),
             ns_per_sample: closed,
-            vs_compliant: nan,
-            vs_newton: nan,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
             point_error: Some((0.0, 0.0)),
             vs_flight_reference: None,
             time_error: None,
@@ -654,8 +646,8 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
             rung: "lagrange".into(),
             precision: "f64".into(),
             ns_per_sample: lagrange,
-            vs_compliant: nan,
-            vs_newton: nan,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
             point_error: Some((rms, p99)),
             vs_flight_reference: None,
             time_error: None,

@@ -16,11 +16,14 @@ use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 use crate::lanes::{CounterRng, Real};
-use crate::physics::{solve_impact, time_of_impact, Law, Motion, Plane, Pose, Rotation, State};
+use crate::physics::{
+    solve_impact, time_of_impact, Ellipsoid, Impact, ImpactOutcome, Law, Motion, Plane, Pose,
+    Rotation, State,
+};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::stats::Moments;
-use crate::summary::active_set_name;
+use crate::summary::{active_set_name, StatSummary};
 
 /// Tolerances at which the share of simultaneous impacts is reported (m).
 pub const SIMULTANEITY_TOLERANCES: [f64; 12] = [
@@ -142,12 +145,72 @@ pub fn start_of(scene: &Scene, sampler: &Sampler, boxes: &CounterRng, i: u64) ->
     }
 }
 
-fn simulate(scene: &Scene, law: Law, start: Motion, acc: &mut DropAcc) {
+/// What every flight of a run shares, built once per run (not per sample).
+pub struct Flight {
+    planes: Vec<Plane>,
+    gravity: DVec3,
+    rotation: Rotation,
+    toi_tolerance: f64,
+    horizon: f64,
+    /// Planes within this distance at the impact take part.
+    contact_tolerance: f64,
+}
+
+/// Why a flight ended without a solved impact.
+enum Stop {
+    FlewAway,
+    Unsolved,
+}
+
+impl Flight {
+    /// The scene's flight with the given RK4 step and time-of-impact
+    /// tolerance (a tolerance above the scene's contact tolerance widens it).
+    pub fn new(scene: &Scene, flight_step: f64, toi_tolerance: f64) -> Self {
+        let fx = scene.effects();
+        Self {
+            planes: scene.planes().iter().map(|p| p.plane).collect(),
+            gravity: DVec3::new(0.0, 0.0, -fx.gravity),
+            rotation: Rotation::for_body(scene.body(), flight_step),
+            toi_tolerance,
+            horizon: fx.horizon,
+            contact_tolerance: scene.tolerance().max(toi_tolerance),
+        }
+    }
+
+    /// Flies from `m` to the next impact and solves it under `law`.
+    fn next(
+        &self,
+        body: &Ellipsoid,
+        m: &Motion,
+        law: Law,
+    ) -> Result<(Impact, ImpactOutcome), Stop> {
+        let hit = time_of_impact(
+            body,
+            m,
+            &self.planes,
+            self.gravity,
+            self.rotation,
+            self.toi_tolerance,
+            self.horizon,
+        )
+        .ok_or(Stop::FlewAway)?;
+        let pose = Pose {
+            rotation: hit.motion.rotation,
+            centre: hit.motion.centre,
+        };
+        let state = State {
+            velocity: hit.motion.velocity,
+            omega: hit.motion.omega,
+        };
+        let o = solve_impact(body, pose, state, &self.planes, law, self.contact_tolerance)
+            .map_err(|_| Stop::Unsolved)?;
+        Ok((hit, o))
+    }
+}
+
+fn simulate(scene: &Scene, flight: &Flight, law: Law, start: Motion, acc: &mut DropAcc) {
     let fx = scene.effects();
-    let planes: Vec<Plane> = scene.planes().iter().map(|p| p.plane).collect();
     let body = scene.body();
-    let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
-    let rotation = Rotation::for_body(body, fx.flight_step);
     // The energy floor is relative to the kinetic energy of the first impact.
     let mut t0 = f64::INFINITY;
     let mut m = start;
@@ -158,32 +221,19 @@ fn simulate(scene: &Scene, law: Law, start: Motion, acc: &mut DropAcc) {
     let mut attempts = 0;
     while impacts < fx.bounces as usize && attempts < 4 * fx.bounces as usize + 4 {
         attempts += 1;
-        let Some(hit) = time_of_impact(
-            body,
-            &m,
-            &planes,
-            gravity,
-            rotation,
-            fx.toi_tolerance,
-            fx.horizon,
-        ) else {
-            acc.flew_away += 1;
-            break;
+        let (hit, o) = match flight.next(body, &m, law) {
+            Ok(x) => x,
+            Err(Stop::FlewAway) => {
+                acc.flew_away += 1;
+                break;
+            }
+            Err(Stop::Unsolved) => {
+                acc.unsolved += 1;
+                break;
+            }
         };
         since += hit.time;
         m = hit.motion;
-        let pose = Pose {
-            rotation: m.rotation,
-            centre: m.centre,
-        };
-        let state = State {
-            velocity: m.velocity,
-            omega: m.omega,
-        };
-        let Ok(o) = solve_impact(body, pose, state, &planes, law, scene.tolerance()) else {
-            acc.unsolved += 1;
-            break;
-        };
         let mask = o
             .contacts
             .iter()
@@ -205,11 +255,11 @@ fn simulate(scene: &Scene, law: Law, start: Motion, acc: &mut DropAcc) {
         b.speed_before.push(m.velocity.length());
         b.energy_gain += o.flags.energy_gain as u64;
         b.degenerate += o.flags.degenerate as u64;
-        let mut d: Vec<f64> = hit.distances.clone();
+        let mut d = hit.distances;
         d.sort_by(f64::total_cmp);
-        if d.len() > 1 {
+        if let Some(&second) = d.get(1) {
             for (k, &tol) in SIMULTANEITY_TOLERANCES.iter().enumerate() {
-                b.within[k] += (d[1] <= tol) as u64;
+                b.within[k] += (second <= tol) as u64;
             }
         }
         impacts += 1;
@@ -252,6 +302,8 @@ pub fn run_drop(scene: &Scene, threads: usize) -> Result<DropRun, rayon::ThreadP
     let bounces = scene.effects().bounces as usize;
     let batch = scene.batch_size().min(4096);
     let batches = scene.samples().div_ceil(batch);
+    let fx = scene.effects();
+    let flight = Flight::new(scene, fx.flight_step, fx.toi_tolerance);
     let t0 = Instant::now();
     let laws = pool.install(|| {
         scene
@@ -271,6 +323,7 @@ pub fn run_drop(scene: &Scene, threads: usize) -> Result<DropRun, rayon::ThreadP
                             for i in lo..hi {
                                 simulate(
                                     scene,
+                                    &flight,
                                     law,
                                     start_of(scene, &sampler, &boxes, i),
                                     &mut acc,
@@ -297,9 +350,7 @@ pub fn run_drop(scene: &Scene, threads: usize) -> Result<DropRun, rayon::ThreadP
 }
 
 fn stat(m: &Moments) -> Value {
-    let n = m.count();
-    let f = |x: f64| if n == 0 { Value::Null } else { json!(x) };
-    json!({"n": n, "mean": f(m.mean()), "ci95": f(m.ci95()), "sd": f(m.sd()), "min": f(m.min()), "max": f(m.max())})
+    serde_json::to_value(StatSummary::from_moments(m)).expect("summary values serialise")
 }
 
 impl DropRun {
@@ -538,7 +589,7 @@ pub fn write_outputs(
     started: std::time::SystemTime,
 ) -> Result<Vec<std::path::PathBuf>, crate::output::OutputError> {
     use crate::manifest::{utc_string, Machine, Manifest};
-    use crate::output::{write_parquet, OutputError, Staging};
+    use crate::output::{schema_metadata, write_parquet, OutputError, Staging};
     let mut staging = Staging::new(dir);
     let path = |n: &str| dir.join(n).display().to_string();
     let frames = frames(run, scene).map_err(|source| OutputError::Parquet {
@@ -547,11 +598,7 @@ pub fn write_outputs(
     })?;
     let mut files = Vec::new();
     for (name, mut df) in frames {
-        let meta = polars::prelude::KeyValueMetadata::from_static(vec![(
-            "impactmc.schema_version".into(),
-            crate::SCHEMA_VERSION.to_string(),
-        )]);
-        write_parquet(&mut staging, name, &mut df, meta)?;
+        write_parquet(&mut staging, name, &mut df, schema_metadata())?;
         files.push(name.to_string());
     }
     staging.write_json("summary.json", &run.summary_json(scene))?;
@@ -592,36 +639,9 @@ pub fn first_impact(
     flight_step: f64,
     toi_tolerance: f64,
 ) -> Option<(f64, DVec3, DVec3, f64)> {
-    let fx = scene.effects();
-    let planes: Vec<Plane> = scene.planes().iter().map(|p| p.plane).collect();
-    let body = scene.body();
-    let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
-    let rotation = Rotation::for_body(body, flight_step);
-    let hit = time_of_impact(
-        body,
-        start,
-        &planes,
-        gravity,
-        rotation,
-        toi_tolerance,
-        fx.horizon,
-    )?;
-    let m = hit.motion;
-    let o = solve_impact(
-        body,
-        Pose {
-            rotation: m.rotation,
-            centre: m.centre,
-        },
-        State {
-            velocity: m.velocity,
-            omega: m.omega,
-        },
-        &planes,
-        law,
-        scene.tolerance().max(toi_tolerance),
-    )
-    .ok()?;
+    let (hit, o) = Flight::new(scene, flight_step, toi_tolerance)
+        .next(scene.body(), start, law)
+        .ok()?;
     if o.contacts.iter().all(|c| c.impulse <= 0.0) {
         return None;
     }

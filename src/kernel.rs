@@ -67,11 +67,7 @@ impl<T: Real, const N: usize> Consts<T, N> {
     pub fn new(scene: &Scene) -> Self {
         assert_eq!(scene.touching().len(), N, "kernel width");
         let f32_lanes = T::EPSILON.to_f64() > 1e-10;
-        let planes: Vec<_> = scene
-            .touching()
-            .iter()
-            .map(|&i| scene.planes()[i].plane)
-            .collect();
+        let planes = scene.touching_planes();
         let body = scene.body();
         let s = body.semi_axes();
         let (a2, b2, c2) = (s.x * s.x, s.y * s.y, s.z * s.z);

@@ -392,10 +392,7 @@ fn accuracy(scene: &Option<PathBuf>, out: &Option<PathBuf>, force: bool) -> Resu
         &mut staging,
         "accuracy.parquet",
         &mut df,
-        polars::prelude::KeyValueMetadata::from_static(vec![(
-            "impactmc.schema_version".into(),
-            impactmc::SCHEMA_VERSION.to_string(),
-        )]),
+        impactmc::output::schema_metadata(),
     )
     .map_err(io)?;
     for (name, text) in [("accuracy.md", &md), ("accuracy.svg", &svg)] {

@@ -413,6 +413,14 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
     }))
 }
 
+/// Key-value metadata with the schema version only (tables without units).
+pub fn schema_metadata() -> KeyValueMetadata {
+    KeyValueMetadata::from_static(vec![(
+        "impactmc.schema_version".into(),
+        crate::SCHEMA_VERSION.to_string(),
+    )])
+}
+
 /// Key-value metadata: units of every statistic and the schema version.
 pub fn table_metadata(summary: &Summary) -> KeyValueMetadata {
     let mut units = serde_json::Map::new();

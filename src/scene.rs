@@ -582,6 +582,13 @@ impl Scene {
     pub fn touching(&self) -> &[usize] {
         &self.touching
     }
+    /// The touching planes themselves, in scene order.
+    pub fn touching_planes(&self) -> Vec<Plane> {
+        self.touching
+            .iter()
+            .map(|&i| self.planes[i].plane)
+            .collect()
+    }
     pub fn orientation(&self) -> OrientationDist {
         self.orientation
     }

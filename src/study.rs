@@ -28,6 +28,18 @@ pub struct PointRun {
     pub summary: Summary,
 }
 
+impl PointRun {
+    fn new(values: Vec<(String, f64)>, scene: Scene, result: RunResult) -> Self {
+        let summary = Summary::new(&scene, &result);
+        Self {
+            values,
+            scene,
+            result,
+            summary,
+        }
+    }
+}
+
 pub struct Study {
     /// The scene as given (overrides applied, sweep included).
     pub raw: RawScene,
@@ -103,13 +115,7 @@ pub fn run_study(
                 run_with_samples(&p.scene, opts, Some(&mut sink))?
             }
         };
-        let summary = Summary::new(&p.scene, &result);
-        runs.push(PointRun {
-            values: p.values,
-            scene: p.scene,
-            result,
-            summary,
-        });
+        runs.push(PointRun::new(p.values, p.scene, result));
     }
     let sample_rows = match writer {
         Some(w) => Some(w.finish().map_err(|e| RunError::Sink(e.to_string()))?),
@@ -182,13 +188,7 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
             cpu[k],
             threads,
         );
-        let summary = Summary::new(&p.scene, &result);
-        runs.push(PointRun {
-            values: p.values,
-            scene: p.scene,
-            result,
-            summary,
-        });
+        runs.push(PointRun::new(p.values, p.scene, result));
     }
     let merge = MergeInfo {
         shard_count: checked.count,

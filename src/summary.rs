@@ -27,7 +27,7 @@ pub struct StatSummary {
 }
 
 impl StatSummary {
-    fn from_moments(m: &Moments) -> Self {
+    pub fn from_moments(m: &Moments) -> Self {
         let n = m.count();
         let nan_if_empty = |x: f64| if n == 0 { f64::NAN } else { x };
         Self {

@@ -225,13 +225,11 @@ fn drop_corner_from_the_command_line() {
     assert_eq!(v["effects"]["bounces"], 5);
     let b = &v["laws"]["newton"]["bounces"];
     assert_eq!(b.as_array().unwrap().len(), 5);
-    // The share of simultaneous impacts grows with the tolerance.
-    let sim = b[0]["simultaneous_within_tolerance"].as_object().unwrap();
-    let xs: Vec<f64> = sim.values().map(|x| x.as_f64().unwrap()).collect();
-    assert!(
-        xs.windows(2).all(|w| w[0] <= w[1]) && xs[xs.len() - 1] > xs[0],
-        "{xs:?}"
-    );
+    // Exact simultaneity has probability zero: no first impact has a second
+    // plane within 1e-9 m, yet a wide tolerance makes many simultaneous.
+    let sim = &b[0]["simultaneous_within_tolerance"];
+    assert_eq!(sim["1e-9"].as_f64(), Some(0.0), "{sim}");
+    assert!(sim["1e-1"].as_f64().unwrap() > 0.05, "{sim}");
     for f in [
         "bounces.parquet",
         "planes_hit.parquet",

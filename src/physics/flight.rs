@@ -187,18 +187,14 @@ pub fn time_of_impact(
         })
         .collect();
     for iterations in 0..100_000u32 {
-        let r = m.rotation;
-        let geo: Vec<ContactGeometry> = planes
-            .iter()
-            .map(|p| ContactGeometry::new(body, r, m.centre, p))
-            .collect();
         let mut hit = false;
         // Each plane bounds its own step: its gap closes at most at
         // max(0, −n·v) + |ω| reach, plus max(0, −n·g) t (gravity along the
         // wall's normal only), so a plane the body moves away from does not
         // hold the others back.
         let mut dt = f64::INFINITY;
-        for ((p, g), a) in planes.iter().zip(&geo).zip(armed.iter_mut()) {
+        for (p, a) in planes.iter().zip(armed.iter_mut()) {
+            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
             if !*a && g.distance > tolerance {
                 *a = true;
             }
@@ -237,7 +233,10 @@ pub fn time_of_impact(
             return Some(Impact {
                 time: t,
                 motion: m,
-                distances: geo.iter().map(|g| g.distance).collect(),
+                distances: planes
+                    .iter()
+                    .map(|p| ContactGeometry::new(body, m.rotation, m.centre, p).distance)
+                    .collect(),
                 iterations,
             });
         }
