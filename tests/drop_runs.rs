@@ -28,6 +28,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
     // flight, bounces)
     let want = [
         ("floor", true, false, false, "none", 1),
+        ("floor_sphere", false, false, false, "none", 1),
         ("corner2_paper", true, true, false, "none", 1),
         ("corner3", true, true, false, "none", 1),
         ("sweep_aspect_ratio", true, false, false, "none", 1),
