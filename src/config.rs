@@ -40,6 +40,9 @@ pub struct RawScene {
     /// Effects beyond those the scene implies: flight, gravity, bounces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effects: Option<RawEffects>,
+    /// Which statistics a run keeps beyond counts and moments.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub statistics: Option<RawStatistics>,
     /// Contact material, for the compliant reference of `impactmc accuracy`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<RawMaterial>,
@@ -76,6 +79,23 @@ pub struct RawAccuracy {
     pub flight_steps: Option<Vec<f64>>,
     /// Drop scenes: time-of-impact tolerances to compare (m).
     pub toi_tolerances: Option<Vec<f64>>,
+}
+
+/// Which statistics a run keeps (`[statistics]`). Counts, fractions and
+/// the moments (mean, CI, sd, min, max) of every statistic are always kept.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawStatistics {
+    /// Statistics whose quantiles (p01, median, p99) and histograms are
+    /// kept: any of `energy_ratio`, `omega_after_norm`,
+    /// `velocity_after_norm`, `impulse`, `rebound` (per plane). Default:
+    /// the first three.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quantiles: Option<Vec<String>>,
+    /// Moments and histograms of the post-impact statistics per active
+    /// contact set (the `groups` of the summary). Default: false.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by_active_set: Option<bool>,
 }
 
 /// What a run writes beyond the summary tables.

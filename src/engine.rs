@@ -24,6 +24,66 @@ use crate::sampler::{Inputs, Sampler, BLOCK};
 use crate::scene::{Precision, Scene};
 use crate::stats::{LogHistogram, Moments, Stat, BINS};
 
+/// The kernel instantiation a run uses, chosen once per run from the scene's
+/// derived effects: each effect a scene does not need is compiled out of
+/// its kernel (const generics), not branched over per sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KernelVariant {
+    /// Lever arms, per-lane G and ω⁺ (off for spheres).
+    pub rotational_coupling: bool,
+    /// The LCP over the touching planes (off for one plane, or G diagonal
+    /// by geometry: every law is then the per-contact closed form).
+    pub coupled_contacts: bool,
+}
+
+impl KernelVariant {
+    /// The scene's variant, or with `all_effects` the kernel that computes
+    /// every effect whatever the scene (for measuring what an effect costs).
+    pub fn of(scene: &Scene, all_effects: bool) -> Self {
+        let e = scene.effects();
+        Self {
+            rotational_coupling: all_effects || e.rotational_coupling,
+            coupled_contacts: all_effects || e.coupled_contacts,
+        }
+    }
+
+    /// `rotation+lcp`, `rotation`, `lcp` or `closed-form`.
+    pub fn name(&self) -> &'static str {
+        match (self.rotational_coupling, self.coupled_contacts) {
+            (true, true) => "rotation+lcp",
+            (true, false) => "rotation",
+            (false, true) => "lcp",
+            (false, false) => "closed-form",
+        }
+    }
+}
+
+/// Calls `f::<T, N, ROT, CPL>(args)` for a scene's precision, contact count
+/// and kernel variant.
+macro_rules! with_kernel {
+    ($scene:expr, $variant:expr, $f:ident($($arg:expr),*)) => {{
+        let v: KernelVariant = $variant;
+        macro_rules! by_variant {
+            ($t:ty, $n:literal) => {
+                match (v.rotational_coupling, v.coupled_contacts) {
+                    (true, true) => $f::<$t, $n, true, true>($($arg),*),
+                    (true, false) => $f::<$t, $n, true, false>($($arg),*),
+                    (false, true) => $f::<$t, $n, false, true>($($arg),*),
+                    (false, false) => $f::<$t, $n, false, false>($($arg),*),
+                }
+            };
+        }
+        match ($scene.precision(), $scene.touching().len()) {
+            (Precision::F32, 1) => by_variant!(f32, 1),
+            (Precision::F32, 2) => by_variant!(f32, 2),
+            (Precision::F32, _) => by_variant!(f32, 3),
+            (Precision::F64, 1) => by_variant!(f64, 1),
+            (Precision::F64, 2) => by_variant!(f64, 2),
+            (Precision::F64, _) => by_variant!(f64, 3),
+        }
+    }};
+}
+
 /// Statistics of the samples in one active-contact set.
 #[derive(Debug, Clone, Default)]
 pub struct GroupAcc {
@@ -329,14 +389,45 @@ impl<T: Real, const N: usize> Work<T, N> {
     }
 }
 
+/// What the statistics pass computes: the scene's requested statistics
+/// (its derived effect set), or everything under `--all-effects`. Chosen
+/// once per run; each choice skips whole passes over a block, never a lane.
+#[derive(Debug, Clone, Copy)]
+struct StatsPlan {
+    /// Histograms of energy_ratio, |ω⁺|, |v⁺|, impulse, rebound.
+    quantiles: [bool; 5],
+    by_set: bool,
+    /// |ω⁺| when it is the same in every sample: counted, not computed.
+    constant_spin: Option<f64>,
+}
+
+impl StatsPlan {
+    fn of(scene: &Scene, all_effects: bool) -> Self {
+        let e = scene.effects();
+        let st = if all_effects {
+            crate::scene::Statistics::ALL
+        } else {
+            e.statistics
+        };
+        Self {
+            quantiles: st.quantiles,
+            by_set: st.by_active_set,
+            constant_spin: if all_effects { None } else { e.constant_spin },
+        }
+    }
+}
+
 /// Per-lane f64 statistics of a law's block results. Lanes past `count`
 /// and penetrating lanes get weight 0, and every value is made finite (0 where
-/// its weight is 0), so masked sums are plain arithmetic.
+/// its weight is 0), so masked sums are plain arithmetic. Ratios and norms
+/// are computed in the kernel's precision (the values are no more accurate
+/// than that), then widened for the sums.
 #[inline(always)]
 fn derive<T: Real, const N: usize>(
     geo: &Geometry<T, N>,
     out: &LawOut<T, N>,
     count: usize,
+    plan: StatsPlan,
     d: &mut Derived<N>,
 ) {
     let approach_mask = (1u32 << N) - 1;
@@ -354,31 +445,26 @@ fn derive<T: Real, const N: usize>(
         }
     }
     for s in 0..BLOCK {
-        let ratio = out.t_after[s].to_f64() / geo.t_before[s].to_f64();
+        let ratio = (out.t_after[s] / geo.t_before[s]).to_f64();
         d.ratio[s] = if d.impacting[s] > 0.0 { ratio } else { 0.0 };
     }
+    if plan.constant_spin.is_none() {
+        for s in 0..BLOCK {
+            let (a, b, c) = (out.w_after[0][s], out.w_after[1][s], out.w_after[2][s]);
+            let w = (a * a + b * b + c * c).sqrt().to_f64();
+            d.omega[s] = if d.impacting[s] > 0.0 { w } else { 0.0 };
+        }
+    }
     for s in 0..BLOCK {
-        let (a, b, c) = (
-            out.w_after[0][s].to_f64(),
-            out.w_after[1][s].to_f64(),
-            out.w_after[2][s].to_f64(),
-        );
-        let w = (a * a + b * b + c * c).sqrt();
-        let (a, b, c) = (
-            out.v_after[0][s].to_f64(),
-            out.v_after[1][s].to_f64(),
-            out.v_after[2][s].to_f64(),
-        );
-        let v = (a * a + b * b + c * c).sqrt();
-        let on = d.impacting[s] > 0.0;
-        d.omega[s] = if on { w } else { 0.0 };
-        d.speed[s] = if on { v } else { 0.0 };
+        let (a, b, c) = (out.v_after[0][s], out.v_after[1][s], out.v_after[2][s]);
+        let v = (a * a + b * b + c * c).sqrt().to_f64();
+        d.speed[s] = if d.impacting[s] > 0.0 { v } else { 0.0 };
     }
     for i in 0..N {
         for s in 0..BLOCK {
             let on = d.impacting[s] > 0.0;
             d.lambda[i][s] = if on { out.lambda[i][s].to_f64() } else { 0.0 };
-            let r = -out.vn_after[i][s].to_f64() / geo.vn[i][s].to_f64();
+            let r = (-out.vn_after[i][s] / geo.vn[i][s]).to_f64();
             d.rebound[i][s] = if d.approaching[i][s] > 0.0 { r } else { 0.0 };
         }
     }
@@ -391,7 +477,7 @@ fn derive<T: Real, const N: usize>(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
     "x86_64+avx2+fma",
 ))]
-fn block_lanes<T: Real, const N: usize>(
+fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     consts: &Consts<T, N>,
     sampler: &Sampler,
     laws: &[Law],
@@ -401,10 +487,10 @@ fn block_lanes<T: Real, const N: usize>(
     outs: &mut [Box<LawOut<T, N>>],
 ) {
     sampler.fill(first, inputs);
-    geometry(consts, inputs, geo);
+    geometry::<T, N, ROT>(consts, inputs, geo);
     for (law, out) in laws.iter().zip(outs.iter_mut()) {
-        impulses(consts, *law, geo, out);
-        post(consts, inputs, geo, out);
+        impulses::<T, N, ROT, CPL>(consts, *law, geo, out);
+        post::<T, N, ROT>(consts, inputs, geo, out);
     }
 }
 
@@ -557,16 +643,16 @@ fn push_rows<T: Real, const N: usize>(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
     "x86_64+avx2+fma",
 ))]
-pub fn kernel_block<T: Real, const N: usize>(
+pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     consts: &Consts<T, N>,
     law: Law,
     inputs: &Inputs<T>,
     geo: &mut Geometry<T, N>,
     out: &mut LawOut<T, N>,
 ) {
-    geometry(consts, inputs, geo);
-    impulses(consts, law, geo, out);
-    post(consts, inputs, geo, out);
+    geometry::<T, N, ROT>(consts, inputs, geo);
+    impulses::<T, N, ROT, CPL>(consts, law, geo, out);
+    post::<T, N, ROT>(consts, inputs, geo, out);
 }
 
 /// One block: the lane passes, then the reference for flagged lanes, then the
@@ -576,9 +662,10 @@ struct Ctx<'a, T, const N: usize> {
     scene: &'a Scene,
     consts: &'a Consts<T, N>,
     sampler: &'a Sampler,
+    plan: StatsPlan,
 }
 
-fn run_block<T: Real, const N: usize>(
+fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     ctx: &Ctx<T, N>,
     first: u64,
     count: usize,
@@ -590,9 +677,10 @@ fn run_block<T: Real, const N: usize>(
         scene,
         consts,
         sampler,
+        ..
     } = *ctx;
     let laws = scene.laws();
-    block_lanes(
+    block_lanes::<T, N, ROT, CPL>(
         consts,
         sampler,
         laws,
@@ -614,6 +702,7 @@ fn run_block<T: Real, const N: usize>(
         &work.geo,
         &work.outs,
         count,
+        ctx.plan,
         &mut work.derived,
         &mut work.first,
         &mut work.diff,
@@ -634,22 +723,53 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
     }
 }
 
+/// Adds the lanes of `xs` with weight 1 in `w` to one histogram: bin
+/// indices in a vectorised pass, then a branch-free scatter (every lane adds
+/// its weight, 0 or 1). Exact zeros are counted in the vector pass;
+/// negatives (rare: a rebound ratio) one by one.
+#[inline(always)]
+fn scatter(h: &mut LogHistogram, xs: &[f64; BLOCK], w: &[f64; BLOCK], bins: &mut [u16; BLOCK]) {
+    let mut zeros = 0u32;
+    let mut negative = false;
+    for s in 0..BLOCK {
+        bins[s] = LogHistogram::bin(xs[s]);
+        zeros += ((w[s] > 0.0) & (xs[s] == 0.0)) as u32;
+        negative |= (w[s] > 0.0) & (xs[s] < 0.0);
+    }
+    let t = h.positive_bins();
+    for s in 0..BLOCK {
+        t[bins[s] as usize & (BINS - 1)] += ((w[s] > 0.0) & (xs[s] > 0.0)) as u64;
+    }
+    h.add_zeros(zeros as u64);
+    if negative {
+        for s in 0..BLOCK {
+            if w[s] > 0.0 && xs[s] < 0.0 {
+                h.push(xs[s]);
+            }
+        }
+    }
+}
+
 /// Accumulates every law's block results: counters, then moments and
-/// histograms as masked vector passes. Compiled like `block_lanes`.
+/// histograms as masked vector passes, for the statistics the plan asks
+/// for. Compiled like `block_lanes`.
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
     "x86_64+avx2+fma",
 ))]
+#[allow(clippy::too_many_arguments)]
 fn block_stats<T: Real, const N: usize>(
     geo: &Geometry<T, N>,
     outs: &[Box<LawOut<T, N>>],
     count: usize,
+    plan: StatsPlan,
     derived: &mut Box<Derived<N>>,
     first: &mut Box<Derived<N>>,
     diff: &mut [f64; BLOCK],
     acc: &mut RunAcc,
 ) {
     let mut bins = [0u16; BLOCK];
+    let spin = plan.constant_spin;
     for li in 0..outs.len() {
         let la = &mut acc.laws[li];
         let out = &outs[li];
@@ -662,7 +782,7 @@ fn block_stats<T: Real, const N: usize>(
             la.recomputed += (st & RECOMPUTED != 0) as u64;
             la.penetrating += (st & PENETRATING != 0) as u64;
         }
-        derive(geo, out, count, derived);
+        derive(geo, out, count, plan, derived);
         let d = &mut **derived;
         // Counts as vectorised compare-and-sum passes (a scatter into one
         // counter per set would chain every sample through memory).
@@ -682,105 +802,182 @@ fn block_stats<T: Real, const N: usize>(
         la.energy_ratio
             .moments
             .push_weighted(&d.ratio, &d.impacting);
-        la.omega_after_norm
-            .moments
-            .push_weighted(&d.omega, &d.impacting);
+        match spin {
+            Some(w) => la.omega_after_norm.moments.push_repeated(w, impacts as u64),
+            None => la
+                .omega_after_norm
+                .moments
+                .push_weighted(&d.omega, &d.impacting),
+        }
         la.velocity_after_norm
             .moments
             .push_weighted(&d.speed, &d.impacting);
         for i in 0..N {
-            la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
-            la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
-        }
-        let mut present = [false; 8];
-        for s in 0..BLOCK {
-            present[d.active[s] as usize & 7] = true;
-        }
-        for (m, g) in la.groups.iter_mut().enumerate() {
-            // Integer counting keeps this loop vectorisable.
-            let mut hits = 0u32;
-            for s in 0..BLOCK {
-                let on = (d.active[s] == m as u32) as u32 & (d.impacting[s] > 0.0) as u32;
-                d.mask[s] = on as f64;
-                hits += on;
-            }
-            if hits > 0 {
-                g.impacts += hits as u64;
-                g.energy_ratio.moments.push_weighted(&d.ratio, &d.mask);
-                g.omega_after_norm.moments.push_weighted(&d.omega, &d.mask);
-                g.velocity_after_norm
+            if plan.quantiles[3] {
+                la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
+            } else {
+                la.impulse[i]
                     .moments
-                    .push_weighted(&d.speed, &d.mask);
+                    .push_weighted(&d.lambda[i], &d.impacting);
+            }
+            if plan.quantiles[4] {
+                la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
+            } else {
+                la.rebound[i]
+                    .moments
+                    .push_weighted(&d.rebound[i], &d.approaching[i]);
             }
         }
-        // Histograms: bins computed once per statistic (vectorised), each
-        // impacting sample counted in its own contact set's histogram.
-        for k in 0..3 {
-            let xs = [&d.ratio, &d.omega, &d.speed][k];
-            let mut other = false;
-            let mut negative = false;
-            for s in 0..BLOCK {
-                bins[s] = LogHistogram::bin(xs[s]);
-                other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
-                negative |= (d.impacting[s] > 0.0) & (xs[s] < 0.0);
+        if plan.by_set {
+            block_stats_by_set(la, d, count, plan, &mut bins);
+        } else {
+            // Histograms straight into the "all" statistics.
+            if plan.quantiles[0] {
+                scatter(&mut la.energy_ratio.hist, &d.ratio, &d.impacting, &mut bins);
             }
-            // Branch-free: every lane adds its weight (0 or 1) to its set's
-            // table, so every set present in the block gets one.
-            let mut tables: [Option<&mut [u64; BINS]>; 8] = Default::default();
-            for (m, g) in la.groups.iter_mut().enumerate() {
-                if present[m] {
-                    tables[m] = Some(group_stat(g, k).hist.positive_bins());
-                }
-            }
-            for s in 0..BLOCK {
-                let on = (d.impacting[s] > 0.0) & (xs[s] > 0.0);
-                if let Some(t) = &mut tables[d.active[s] as usize & 7] {
-                    t[bins[s] as usize & (BINS - 1)] += on as u64;
+            if plan.quantiles[1] {
+                match spin {
+                    Some(w) => la.omega_after_norm.hist.push_repeated(w, impacts as u64),
+                    None => scatter(
+                        &mut la.omega_after_norm.hist,
+                        &d.omega,
+                        &d.impacting,
+                        &mut bins,
+                    ),
                 }
             }
-            if other {
-                // Exact zeros per contact set by compare-and-sum passes (a
-                // sphere's |ω⁺| is zero in every lane); negatives one by one.
-                for (m, g) in la.groups.iter_mut().enumerate() {
-                    if !present[m] {
-                        continue;
-                    }
-                    let mut zeros = 0u32;
-                    for s in 0..BLOCK {
-                        zeros += ((d.active[s] == m as u32)
-                            & (d.impacting[s] > 0.0)
-                            & (xs[s] == 0.0)) as u32;
-                    }
-                    group_stat(g, k).hist.add_zeros(zeros as u64);
-                }
-                if negative {
-                    for s in 0..count {
-                        if d.impacting[s] > 0.0 && xs[s] < 0.0 {
-                            group_stat(&mut la.groups[d.active[s] as usize], k)
-                                .hist
-                                .push(xs[s]);
-                        }
-                    }
-                }
+            if plan.quantiles[2] {
+                scatter(
+                    &mut la.velocity_after_norm.hist,
+                    &d.speed,
+                    &d.impacting,
+                    &mut bins,
+                );
             }
         }
         if li == 0 {
             std::mem::swap(first, derived);
         } else {
             let (f, d) = (&**first, &mut **derived);
+            let mut both = 0u32;
             for s in 0..BLOCK {
                 d.mask[s] = d.impacting[s] * f.impacting[s];
+                both += (d.mask[s] > 0.0) as u32;
             }
             let p = &mut acc.pairs[li - 1];
-            for (target, a, b) in [
+            for (k, (target, a, b)) in [
                 (&mut p.energy_ratio, &d.ratio, &f.ratio),
                 (&mut p.omega_after_norm, &d.omega, &f.omega),
                 (&mut p.velocity_after_norm, &d.speed, &f.speed),
-            ] {
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if k == 1 && spin.is_some() {
+                    target.push_repeated(0.0, both as u64);
+                    continue;
+                }
                 for s in 0..BLOCK {
                     diff[s] = a[s] - b[s];
                 }
                 target.push_weighted(diff, &d.mask);
+            }
+        }
+    }
+}
+
+/// The per-active-set statistics of one law's block (`by_active_set`):
+/// moments of the post-impact statistics per set present, and their
+/// histograms per set (the "all" histograms are their sums, made by
+/// [`RunAcc::finish`]).
+#[inline(always)]
+fn block_stats_by_set<const N: usize>(
+    la: &mut LawAcc,
+    d: &mut Derived<N>,
+    count: usize,
+    plan: StatsPlan,
+    bins: &mut [u16; BLOCK],
+) {
+    let spin = plan.constant_spin;
+    let mut present = [false; 8];
+    for s in 0..BLOCK {
+        present[d.active[s] as usize & 7] = true;
+    }
+    for (m, g) in la.groups.iter_mut().enumerate() {
+        // Integer counting keeps this loop vectorisable.
+        let mut hits = 0u32;
+        for s in 0..BLOCK {
+            let on = (d.active[s] == m as u32) as u32 & (d.impacting[s] > 0.0) as u32;
+            d.mask[s] = on as f64;
+            hits += on;
+        }
+        if hits > 0 {
+            g.impacts += hits as u64;
+            g.energy_ratio.moments.push_weighted(&d.ratio, &d.mask);
+            match spin {
+                Some(w) => {
+                    g.omega_after_norm.moments.push_repeated(w, hits as u64);
+                    if plan.quantiles[1] {
+                        g.omega_after_norm.hist.push_repeated(w, hits as u64);
+                    }
+                }
+                None => g.omega_after_norm.moments.push_weighted(&d.omega, &d.mask),
+            }
+            g.velocity_after_norm
+                .moments
+                .push_weighted(&d.speed, &d.mask);
+        }
+    }
+    // Histograms: bins computed once per statistic (vectorised), each
+    // impacting sample counted in its own contact set's histogram.
+    for k in 0..3 {
+        if !plan.quantiles[k] || (k == 1 && spin.is_some()) {
+            continue;
+        }
+        let xs = [&d.ratio, &d.omega, &d.speed][k];
+        let mut other = false;
+        let mut negative = false;
+        for s in 0..BLOCK {
+            bins[s] = LogHistogram::bin(xs[s]);
+            other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
+            negative |= (d.impacting[s] > 0.0) & (xs[s] < 0.0);
+        }
+        // Branch-free: every lane adds its weight (0 or 1) to its set's
+        // table, so every set present in the block gets one.
+        let mut tables: [Option<&mut [u64; BINS]>; 8] = Default::default();
+        for (m, g) in la.groups.iter_mut().enumerate() {
+            if present[m] {
+                tables[m] = Some(group_stat(g, k).hist.positive_bins());
+            }
+        }
+        for s in 0..BLOCK {
+            let on = (d.impacting[s] > 0.0) & (xs[s] > 0.0);
+            if let Some(t) = &mut tables[d.active[s] as usize & 7] {
+                t[bins[s] as usize & (BINS - 1)] += on as u64;
+            }
+        }
+        if other {
+            // Exact zeros per contact set by compare-and-sum passes (a
+            // sphere's |ω⁺| is zero in every lane); negatives one by one.
+            for (m, g) in la.groups.iter_mut().enumerate() {
+                if !present[m] {
+                    continue;
+                }
+                let mut zeros = 0u32;
+                for s in 0..BLOCK {
+                    zeros += ((d.active[s] == m as u32) & (d.impacting[s] > 0.0) & (xs[s] == 0.0))
+                        as u32;
+                }
+                group_stat(g, k).hist.add_zeros(zeros as u64);
+            }
+            if negative {
+                for s in 0..count {
+                    if d.impacting[s] > 0.0 && xs[s] < 0.0 {
+                        group_stat(&mut la.groups[d.active[s] as usize], k)
+                            .hist
+                            .push(xs[s]);
+                    }
+                }
             }
         }
     }
@@ -812,6 +1009,9 @@ pub struct RunOptions {
     pub progress: bool,
     /// Run only this shard's batches.
     pub shard: Option<Shard>,
+    /// Use the kernel that computes every effect, whatever the scene needs
+    /// (same answers; for measuring what the specialisation saves).
+    pub all_effects: bool,
 }
 
 /// Batches merged per step: bounds memory whatever the sample count.
@@ -820,14 +1020,16 @@ const BATCHES_IN_FLIGHT: u64 = 64;
 /// Receives per-sample rows in sample order.
 pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), String> + Send + 'a;
 
-fn run_typed<T: Real, const N: usize>(
+fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     scene: &Scene,
+    plan: StatsPlan,
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     mut sink: Option<&mut SampleSink>,
 ) -> Result<Vec<(Node, RunAcc)>, String> {
     let consts = Consts::<T, N>::new(scene);
-    let sampler = Sampler::new(scene);
+    // Orientations feed the rotational terms and the per-sample rows only.
+    let sampler = Sampler::new(scene).with_orientation(ROT || sink.is_some());
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
@@ -840,6 +1042,7 @@ fn run_typed<T: Real, const N: usize>(
         scene,
         consts: &consts,
         sampler: &sampler,
+        plan,
     };
     // With per-sample rows in flight, fewer batches at once keep memory low.
     let in_flight = if want_rows {
@@ -863,7 +1066,14 @@ fn run_typed<T: Real, const N: usize>(
                     let mut first = lo;
                     while first < hi {
                         let count = ((hi - first) as usize).min(BLOCK);
-                        run_block(&ctx, first, count, work, &mut part, rows.as_mut());
+                        run_block::<T, N, ROT, CPL>(
+                            &ctx,
+                            first,
+                            count,
+                            work,
+                            &mut part,
+                            rows.as_mut(),
+                        );
                         first += BLOCK as u64;
                     }
                     part.flush();
@@ -1087,15 +1297,10 @@ pub fn run_with_samples(
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
     let r = range.clone();
+    let variant = KernelVariant::of(scene, opts.all_effects);
+    let plan = StatsPlan::of(scene, opts.all_effects);
     let nodes = pool
-        .install(|| match (scene.precision(), scene.touching().len()) {
-            (Precision::F32, 1) => run_typed::<f32, 1>(scene, r, &bar, sink),
-            (Precision::F32, 2) => run_typed::<f32, 2>(scene, r, &bar, sink),
-            (Precision::F32, _) => run_typed::<f32, 3>(scene, r, &bar, sink),
-            (Precision::F64, 1) => run_typed::<f64, 1>(scene, r, &bar, sink),
-            (Precision::F64, 2) => run_typed::<f64, 2>(scene, r, &bar, sink),
-            (Precision::F64, _) => run_typed::<f64, 3>(scene, r, &bar, sink),
-        })
+        .install(|| with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink)))
         .map_err(RunError::Sink)?;
     let (laws, contacts) = (scene.laws().len(), scene.touching().len());
     let kept = if opts.shard.is_some() {
@@ -1140,7 +1345,7 @@ pub struct SampleOutcome {
     pub status: u32,
 }
 
-fn evaluate_typed<T: Real, const N: usize>(
+fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     scene: &Scene,
     law: Law,
     first: u64,
@@ -1153,7 +1358,7 @@ fn evaluate_typed<T: Real, const N: usize>(
     let mut start = first;
     while out.len() < count {
         let n = (count - out.len()).min(BLOCK);
-        block_lanes(
+        block_lanes::<T, N, ROT, CPL>(
             &consts,
             &sampler,
             &[law],
@@ -1193,12 +1398,17 @@ fn evaluate_typed<T: Real, const N: usize>(
 /// (with its f64 fallback) under one law, at the scene's precision. For
 /// tests and per-sample inspection; `run` is the fast path.
 pub fn evaluate_samples(scene: &Scene, law: Law, first: u64, count: usize) -> Vec<SampleOutcome> {
-    match (scene.precision(), scene.touching().len()) {
-        (Precision::F32, 1) => evaluate_typed::<f32, 1>(scene, law, first, count),
-        (Precision::F32, 2) => evaluate_typed::<f32, 2>(scene, law, first, count),
-        (Precision::F32, _) => evaluate_typed::<f32, 3>(scene, law, first, count),
-        (Precision::F64, 1) => evaluate_typed::<f64, 1>(scene, law, first, count),
-        (Precision::F64, 2) => evaluate_typed::<f64, 2>(scene, law, first, count),
-        (Precision::F64, _) => evaluate_typed::<f64, 3>(scene, law, first, count),
-    }
+    evaluate_samples_with(scene, law, first, count, KernelVariant::of(scene, false))
+}
+
+/// [`evaluate_samples`] through a given kernel variant (tests compare the
+/// specialised kernels with the one that computes every effect).
+pub fn evaluate_samples_with(
+    scene: &Scene,
+    law: Law,
+    first: u64,
+    count: usize,
+    variant: KernelVariant,
+) -> Vec<SampleOutcome> {
+    with_kernel!(scene, variant, evaluate_typed(scene, law, first, count))
 }

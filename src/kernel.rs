@@ -56,6 +56,8 @@ pub struct Consts<T, const N: usize> {
     /// (b² − c², c² − a², a² − b²), for the lever arm in its sphere-exact form.
     dsq: [T; 3],
     nn: [[T; N]; N],
+    /// G without rotational coupling (ρ = 0): `nn / m`, the same in every lane.
+    g0: [[T; N]; N],
     length: T,
     det_min: T,
     graze: T,
@@ -87,6 +89,12 @@ impl<T: Real, const N: usize> Consts<T, N> {
             .map(T::from_f64),
             nn: std::array::from_fn(|i| {
                 std::array::from_fn(|j| T::from_f64(planes[i].normal().dot(planes[j].normal())))
+            }),
+            g0: std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    T::from_f64(planes[i].normal().dot(planes[j].normal()))
+                        * T::from_f64(1.0 / body.mass())
+                })
             }),
             length: T::from_f64(body.length_scale()),
             det_min: T::from_f64(if f32_lanes { 1e-3 } else { 1e-8 }),
@@ -149,15 +157,37 @@ impl<T: Real, const N: usize> LawOut<T, N> {
     }
 }
 
-/// Geometry pass: support points, lever arms, normal velocities, G, T⁻.
+/// G_ij of lane s: per lane with rotational coupling, else the constant
+/// `nn / m` (ρ = 0), which the geometry pass then never writes.
 #[inline(always)]
-pub fn geometry<T: Real, const N: usize>(
+fn g_at<T: Real, const N: usize, const ROT: bool>(
+    c: &Consts<T, N>,
+    geo: &Geometry<T, N>,
+    i: usize,
+    j: usize,
+    s: usize,
+) -> T {
+    if ROT {
+        geo.g[i][j][s]
+    } else {
+        c.g0[i][j]
+    }
+}
+
+/// Geometry pass: support points, lever arms, normal velocities, G, T⁻.
+///
+/// `ROT = false` is the kernel without rotational coupling (a sphere: ρ = 0
+/// whatever the orientation): no support points, lever arms or per-lane G.
+/// ω still enters T⁻ and the grazing scale, so both kernels give the same
+/// answer on a sphere.
+#[inline(always)]
+pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     c: &Consts<T, N>,
     x: &Inputs<T>,
     out: &mut Geometry<T, N>,
 ) {
+    let det_ok0 = scaled_det(&c.g0) >= c.det_min;
     for s in 0..BLOCK {
-        let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
         let vmag = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -167,41 +197,48 @@ pub fn geometry<T: Real, const N: usize>(
         let mut status = 0u32;
         for i in 0..N {
             let n = c.normal[i];
-            // u = Aᵀ n
-            let u: [T; 3] =
-                std::array::from_fn(|col| a[col] * n[0] + a[3 + col] * n[1] + a[6 + col] * n[2]);
-            let h2 = c.semi2[0] * u[0] * u[0] + c.semi2[1] * u[1] * u[1] + c.semi2[2] * u[2] * u[2];
-            let minus_inv_h = -T::ONE / h2.sqrt();
-            rho[i] = [
-                c.dsq[0] * u[1] * u[2] * minus_inv_h,
-                c.dsq[1] * u[2] * u[0] * minus_inv_h,
-                c.dsq[2] * u[0] * u[1] * minus_inv_h,
-            ];
-            let vn = n[0] * v[0]
-                + n[1] * v[1]
-                + n[2] * v[2]
-                + rho[i][0] * w[0]
-                + rho[i][1] * w[1]
-                + rho[i][2] * w[2];
-            out.vn[i][s] = vn;
-            for k in 0..3 {
-                out.rho[i][k][s] = rho[i][k];
+            if ROT {
+                let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+                // u = Aᵀ n
+                let u: [T; 3] = std::array::from_fn(|col| {
+                    a[col] * n[0] + a[3 + col] * n[1] + a[6 + col] * n[2]
+                });
+                let h2 =
+                    c.semi2[0] * u[0] * u[0] + c.semi2[1] * u[1] * u[1] + c.semi2[2] * u[2] * u[2];
+                let minus_inv_h = -T::ONE / h2.sqrt();
+                rho[i] = [
+                    c.dsq[0] * u[1] * u[2] * minus_inv_h,
+                    c.dsq[1] * u[2] * u[0] * minus_inv_h,
+                    c.dsq[2] * u[0] * u[1] * minus_inv_h,
+                ];
             }
+            let mut vn = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+            if ROT {
+                vn = vn + rho[i][0] * w[0] + rho[i][1] * w[1] + rho[i][2] * w[2];
+                for k in 0..3 {
+                    out.rho[i][k][s] = rho[i][k];
+                }
+            }
+            out.vn[i][s] = vn;
             status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
             status |= bit(vn.abs() < c.graze * vscale, RECOMPUTE);
         }
-        let mut g = [[T::ZERO; N]; N];
-        for i in 0..N {
-            for j in 0..N {
-                g[i][j] = c.nn[i][j] * c.inv_mass
-                    + rho[i][0] * rho[j][0] * c.inv_inertia[0]
-                    + rho[i][1] * rho[j][1] * c.inv_inertia[1]
-                    + rho[i][2] * rho[j][2] * c.inv_inertia[2];
-                out.g[i][j][s] = g[i][j];
+        if ROT {
+            let mut g = [[T::ZERO; N]; N];
+            for i in 0..N {
+                for j in 0..N {
+                    g[i][j] = c.nn[i][j] * c.inv_mass
+                        + rho[i][0] * rho[j][0] * c.inv_inertia[0]
+                        + rho[i][1] * rho[j][1] * c.inv_inertia[1]
+                        + rho[i][2] * rho[j][2] * c.inv_inertia[2];
+                    out.g[i][j][s] = g[i][j];
+                }
             }
+            let det_s = scaled_det(&g);
+            status |= bit(!(det_s >= c.det_min), RECOMPUTE);
+        } else {
+            status |= bit(!det_ok0, RECOMPUTE);
         }
-        let det_s = scaled_det(&g);
-        status |= bit(!(det_s >= c.det_min), RECOMPUTE);
         out.t_before[s] = T::HALF * c.mass * vmag * vmag
             + T::HALF
                 * (c.inertia[0] * w[0] * w[0]
@@ -360,18 +397,29 @@ fn lcp_lane<T: Real, const N: usize>(
 }
 
 #[inline(always)]
-fn lane_g<T: Real, const N: usize>(geo: &Geometry<T, N>, s: usize) -> [[T; N]; N] {
-    std::array::from_fn(|i| std::array::from_fn(|j| geo.g[i][j][s]))
+fn lane_g<T: Real, const N: usize, const ROT: bool>(
+    c: &Consts<T, N>,
+    geo: &Geometry<T, N>,
+    s: usize,
+) -> [[T; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| g_at::<T, N, ROT>(c, geo, i, j, s)))
 }
 
 /// Impulse pass for the exact laws and the paper's law.
+///
+/// `CPL = false` is the kernel without coupled contacts (one plane, or G
+/// diagonal by geometry): every law then has the closed form
+/// `λ_i = −(1 + k_i) v_n,i / G_ii` on approaching contacts and no LCP is
+/// solved (physics.md: the LCP decouples when G is diagonal, and Poisson's
+/// and PGS's fixed points coincide with Newton's).
 #[inline(always)]
-pub fn impulses<T: Real, const N: usize>(
+pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     c: &Consts<T, N>,
     law: Law,
     geo: &Geometry<T, N>,
     out: &mut LawOut<T, N>,
 ) {
+    let law = if CPL { law } else { Law::Paper };
     match law {
         Law::Paper => {
             for s in 0..BLOCK {
@@ -379,7 +427,7 @@ pub fn impulses<T: Real, const N: usize>(
                     let vn = geo.vn[i][s];
                     out.lambda[i][s] = select(
                         vn < T::ZERO,
-                        -(T::ONE + c.k[i]) * vn / geo.g[i][i][s],
+                        -(T::ONE + c.k[i]) * vn / g_at::<T, N, ROT>(c, geo, i, i, s),
                         T::ZERO,
                     );
                 }
@@ -388,7 +436,7 @@ pub fn impulses<T: Real, const N: usize>(
         }
         Law::Newton => {
             for s in 0..BLOCK {
-                let g = lane_g(geo, s);
+                let g = lane_g::<T, N, ROT>(c, geo, s);
                 let q: [T; N] = std::array::from_fn(|i| {
                     let vn = geo.vn[i][s];
                     vn + c.k[i] * vn.min(T::ZERO)
@@ -402,7 +450,7 @@ pub fn impulses<T: Real, const N: usize>(
         }
         Law::Poisson => {
             for s in 0..BLOCK {
-                let g = lane_g(geo, s);
+                let g = lane_g::<T, N, ROT>(c, geo, s);
                 let v: [T; N] = std::array::from_fn(|i| geo.vn[i][s]);
                 let (lc, ok1) = lcp_lane(c, &g, &v);
                 let klc: [T; N] = std::array::from_fn(|i| c.k[i] * lc[i]);
@@ -432,9 +480,9 @@ pub fn impulses<T: Real, const N: usize>(
                         let vn = geo.vn[i][s];
                         let mut w = vn + c.k[i] * vn.min(T::ZERO);
                         for j in 0..N {
-                            w += geo.g[i][j][s] * lam[j];
+                            w += g_at::<T, N, ROT>(c, geo, i, j, s) * lam[j];
                         }
-                        lam[i] = (lam[i] - w / geo.g[i][i][s]).max(T::ZERO);
+                        lam[i] = (lam[i] - w / g_at::<T, N, ROT>(c, geo, i, i, s)).max(T::ZERO);
                     }
                     for i in 0..N {
                         out.lambda[i][s] = lam[i];
@@ -447,8 +495,9 @@ pub fn impulses<T: Real, const N: usize>(
 }
 
 /// Post pass: velocities, normal velocities and energy after the impulses.
+/// Without rotational coupling (`ROT = false`) ω⁺ = ω⁻.
 #[inline(always)]
-pub fn post<T: Real, const N: usize>(
+pub fn post<T: Real, const N: usize, const ROT: bool>(
     c: &Consts<T, N>,
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
@@ -465,18 +514,26 @@ pub fn post<T: Real, const N: usize>(
         for i in 0..N {
             for k in 0..3 {
                 dv[k] += lam[i] * c.normal[i][k];
-                dl[k] += lam[i] * geo.rho[i][k][s];
+                if ROT {
+                    dl[k] += lam[i] * geo.rho[i][k][s];
+                }
             }
             active |= ((lam[i] > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
         }
         let v: [T; 3] = std::array::from_fn(|k| x.v[k][s] + dv[k] * c.inv_mass);
-        let w: [T; 3] = std::array::from_fn(|k| x.w[k][s] + dl[k] * c.inv_inertia[k]);
+        let w: [T; 3] = std::array::from_fn(|k| {
+            if ROT {
+                x.w[k][s] + dl[k] * c.inv_inertia[k]
+            } else {
+                x.w[k][s]
+            }
+        });
         let mut work = T::ZERO;
         let mut work_abs = T::ZERO;
         for i in 0..N {
             let mut vn = geo.vn[i][s];
             for j in 0..N {
-                vn += geo.g[i][j][s] * lam[j];
+                vn += g_at::<T, N, ROT>(c, geo, i, j, s) * lam[j];
             }
             out.vn_after[i][s] = vn;
             work += lam[i] * (geo.vn[i][s] + vn);

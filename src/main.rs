@@ -111,6 +111,11 @@ struct RunArgs {
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
+    /// Run the kernel that computes every effect (rotational coupling, the
+    /// LCP, all statistics) whatever the scene needs. Same answers, slower:
+    /// for measuring what the effect specialisation saves.
+    #[arg(long)]
+    all_effects: bool,
 }
 
 #[derive(clap::Args)]
@@ -220,6 +225,9 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     let name = points[0].scene.name().to_string();
     // The effect set, before any work (stderr: stdout may be JSON).
     eprintln!("{}", points[0].scene.effects().line());
+    if args.all_effects {
+        eprintln!("kernel: every effect compiled in (--all-effects)");
+    }
     if points[0].scene.drop_box().is_some() {
         if points.len() > 1 || shard.is_some() || points[0].scene.effects().per_sample {
             return Err(bad_input(format!(
@@ -268,6 +276,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             threads: args.threads,
             progress: true,
             shard,
+            all_effects: args.all_effects,
         },
         &dir,
     )

@@ -47,6 +47,10 @@ impl<T: Real> Inputs<T> {
 #[derive(Debug, Clone, Copy)]
 pub struct Sampler {
     rng: CounterRng,
+    /// Draw orientations (false when nothing downstream reads them: a
+    /// sphere's impact does not depend on its orientation). Skipped draws
+    /// leave the identity and do not shift any other draw.
+    orientation_needed: bool,
     orientation: OrientationDist,
     velocity: VectorDist,
     angular_velocity: VectorDist,
@@ -114,10 +118,17 @@ impl Sampler {
     pub fn new(scene: &Scene) -> Self {
         Self {
             rng: CounterRng::new(scene.seed(), DRAWS),
+            orientation_needed: true,
             orientation: scene.orientation(),
             velocity: scene.velocity(),
             angular_velocity: scene.angular_velocity(),
         }
+    }
+
+    /// The same sampler, drawing orientations only if `needed`.
+    pub fn with_orientation(mut self, needed: bool) -> Self {
+        self.orientation_needed = needed;
+        self
     }
 
     #[inline(always)]
@@ -129,7 +140,12 @@ impl Sampler {
     /// is matched once, outside its loop, so the loops are branch-free.
     #[inline(always)]
     pub fn fill<T: Real>(&self, first: u64, out: &mut Inputs<T>) {
-        match self.orientation {
+        let orientation = if self.orientation_needed {
+            self.orientation
+        } else {
+            OrientationDist::Fixed(DMat3::IDENTITY)
+        };
+        match orientation {
             OrientationDist::Uniform => {
                 for s in 0..BLOCK {
                     let i = first + s as u64;
@@ -204,16 +220,18 @@ impl Sampler {
             VectorDist::Normal { mean, sd } => {
                 let m = mean.to_array().map(T::from_f64);
                 let d = sd.to_array().map(T::from_f64);
-                // Normals z0..z5 from pairs (3,4), (5,6), (7,8).
+                // Normals z0..z5 from pairs (3,4), (5,6), (7,8): v takes z0..z2
+                // (pairs (3,4), (5,6)), ω takes z3..z5 (pairs (5,6), (7,8)).
+                // Only the two pairs a vector uses are drawn.
+                let base = 3 + 2 * which;
                 for s in 0..BLOCK {
                     let i = first + s as u64;
-                    let (z0, z1) = box_muller::<T>(self.u(i, 3), self.u(i, 4));
-                    let (z2, z3) = box_muller::<T>(self.u(i, 5), self.u(i, 6));
-                    let (z4, z5) = box_muller::<T>(self.u(i, 7), self.u(i, 8));
+                    let (a0, a1) = box_muller::<T>(self.u(i, base), self.u(i, base + 1));
+                    let (b0, b1) = box_muller::<T>(self.u(i, base + 2), self.u(i, base + 3));
                     let z = if which == 0 {
-                        [z0, z1, z2]
+                        [a0, a1, b0]
                     } else {
-                        [z3, z4, z5]
+                        [a1, b0, b1]
                     };
                     for k in 0..3 {
                         out[k][s] = m[k] + d[k] * z[k];

@@ -714,6 +714,89 @@ pub struct Effects {
     pub flight_rotation: &'static str,
     /// Per-sample rows requested.
     pub per_sample: bool,
+    /// Statistics kept beyond counts and moments (`[statistics]`).
+    pub statistics: Statistics,
+    /// |ω⁺|, when it is the same in every sample (no rotational coupling and
+    /// a fixed ω): counted, not computed per sample.
+    pub constant_spin: Option<f64>,
+}
+
+/// The statistics a run keeps beyond counts and moments: those not
+/// requested are not computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Statistics {
+    /// Quantiles (histograms) of energy_ratio, omega_after_norm,
+    /// velocity_after_norm, impulse and rebound, in [`STATISTIC_NAMES`] order.
+    pub quantiles: [bool; 5],
+    /// Moments and histograms per active contact set.
+    pub by_active_set: bool,
+}
+
+/// The statistics `[statistics] quantiles` may name.
+pub const STATISTIC_NAMES: [&str; 5] = [
+    "energy_ratio",
+    "omega_after_norm",
+    "velocity_after_norm",
+    "impulse",
+    "rebound",
+];
+
+impl Statistics {
+    /// Everything: what `--all-effects` computes.
+    pub const ALL: Self = Self {
+        quantiles: [true; 5],
+        by_active_set: true,
+    };
+
+    fn from_raw(raw: Option<&crate::config::RawStatistics>) -> Result<Self, Bad> {
+        let mut quantiles = [true, true, true, false, false];
+        if let Some(names) = raw.and_then(|r| r.quantiles.as_ref()) {
+            quantiles = [false; 5];
+            for (i, n) in names.iter().enumerate() {
+                match STATISTIC_NAMES.iter().position(|s| s == n) {
+                    Some(k) if quantiles[k] => {
+                        return Err(bad(
+                            &["statistics", &format!("quantiles[{i}]")],
+                            format!("{n:?} is listed twice"),
+                        ))
+                    }
+                    Some(k) => quantiles[k] = true,
+                    None => {
+                        return Err(bad(
+                            &["statistics", &format!("quantiles[{i}]")],
+                            format!(
+                                "unknown statistic {n:?} (expected one of {})",
+                                STATISTIC_NAMES.join(", ")
+                            ),
+                        ))
+                    }
+                }
+            }
+        }
+        Ok(Self {
+            quantiles,
+            by_active_set: raw.and_then(|r| r.by_active_set).unwrap_or(false),
+        })
+    }
+
+    /// `quantiles of energy_ratio, …; by active set` for the effects line.
+    pub fn describe(&self) -> String {
+        let q: Vec<&str> = STATISTIC_NAMES
+            .iter()
+            .zip(self.quantiles)
+            .filter_map(|(n, on)| on.then_some(*n))
+            .collect();
+        let q = if q.is_empty() {
+            "no quantiles".to_string()
+        } else {
+            format!("quantiles of {}", q.join(", "))
+        };
+        if self.by_active_set {
+            format!("{q}; moments per active set")
+        } else {
+            q
+        }
+    }
 }
 
 impl Effects {
@@ -827,6 +910,11 @@ impl Effects {
                 "rk4"
             },
             per_sample: raw.output.as_ref().is_some_and(|o| o.per_sample),
+            statistics: Statistics::from_raw(raw.statistics.as_ref())?,
+            constant_spin: match (sphere, &raw.angular_velocity) {
+                (true, RawVector::Fixed { value }) => Some(DVec3::from_array(*value).length()),
+                _ => None,
+            },
         })
     }
 
@@ -847,6 +935,10 @@ impl Effects {
             }
         }
         let mut s = format!("effects: on [{}]; off [{}]", on.join(", "), off.join(", "));
+        if let Some(w) = self.constant_spin {
+            s.push_str(&format!("; |ω⁺| = {w} in every sample (not computed)"));
+        }
+        s.push_str(&format!("; statistics: {}", self.statistics.describe()));
         if self.flight {
             s.push_str(&format!(
                 "; gravity {} m/s², up to {} bounce(s), rotation in flight: {}",

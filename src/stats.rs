@@ -91,6 +91,24 @@ impl Moments {
         self.max = self.max.max(x);
     }
 
+    /// Adds `n` copies of `x` (a statistic that is the same in every
+    /// sample): what `n` calls of [`Self::push`] would add, up to rounding.
+    #[inline]
+    pub fn push_repeated(&mut self, x: f64, n: u64) {
+        if n == 0 {
+            return;
+        }
+        if self.pending_n == 0 {
+            self.shift = x;
+        }
+        self.pending_n += n;
+        let d = x - self.shift;
+        self.s1 += n as f64 * d;
+        self.s2 += n as f64 * d * d;
+        self.min = self.min.min(x);
+        self.max = self.max.max(x);
+    }
+
     /// Adds the values of `xs` with weight 1 in `w` (weights are 0 or 1;
     /// every `xs` must be finite). The sums run in eight fixed partial
     /// accumulators, so the loop vectorises and the order of additions is
@@ -297,6 +315,24 @@ impl LogHistogram {
             self.pos = vec![0; BINS];
         }
         (&mut self.pos[..]).try_into().expect("BINS counts")
+    }
+
+    /// Adds `n` copies of `x`.
+    #[inline]
+    pub fn push_repeated(&mut self, x: f64, n: u64) {
+        if n == 0 {
+            return;
+        }
+        if x > 0.0 {
+            self.positive_bins()[bin_of(x)] += n;
+        } else if x < 0.0 {
+            if self.neg.is_empty() {
+                self.neg = vec![0; BINS];
+            }
+            self.neg[bin_of(-x)] += n;
+        } else {
+            self.zero += n;
+        }
     }
 
     /// Adds `n` exact zeros.

@@ -116,6 +116,7 @@ fn scene(
         material: None,
         accuracy: None,
         effects: None,
+        statistics: None,
     };
     Scene::validate("(stress)", "", raw).expect("stress scenes are valid")
 }

@@ -9,7 +9,8 @@ use crate::scene::Scene;
 use crate::stats::{Moments, Stat};
 
 /// Mean, spread and quantiles of one statistic. Quantiles are absent where
-/// only moments are kept (groups other than "all", paired differences).
+/// only moments are kept (statistics not listed in `[statistics]
+/// quantiles`, paired differences).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct StatSummary {
     pub n: u64,
@@ -45,7 +46,8 @@ impl StatSummary {
 
     fn from_stat(s: &Stat) -> Self {
         let mut out = Self::from_moments(&s.moments);
-        if out.n > 0 {
+        // A statistic whose quantiles were not requested has no histogram.
+        if out.n > 0 && s.hist.total() > 0 {
             out.p01 = Some(s.quantile(0.01));
             out.median = Some(s.quantile(0.5));
             out.p99 = Some(s.quantile(0.99));
@@ -134,7 +136,7 @@ fn headline(
     m
 }
 
-fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
+fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSummary {
     let mut stats = headline(
         StatSummary::from_stat(&acc.energy_ratio),
         StatSummary::from_stat(&acc.omega_after_norm),
@@ -185,7 +187,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String]) -> LawSummary {
         }),
     );
     for (mask, g) in acc.groups.iter().enumerate() {
-        if g.samples == 0 {
+        if g.samples == 0 || !by_active_set {
             continue;
         }
         let s = headline(
@@ -223,7 +225,8 @@ impl Summary {
             .collect();
         let mut laws = Map::new();
         for (law, acc) in scene.laws().iter().zip(&result.acc.laws) {
-            laws.insert(law.name(), json(&law_summary(acc, &contacts)));
+            let by_set = scene.effects().statistics.by_active_set;
+            laws.insert(law.name(), json(&law_summary(acc, &contacts, by_set)));
         }
         let mut paired = Map::new();
         let first = scene.laws()[0].name();
