@@ -96,7 +96,8 @@ fn bench(c: &mut Criterion) {
         bch.iter(|| {
             let mut acc = 0f32;
             for x in &blocks {
-                kernel_block(&consts, Law::Newton, x, &mut geo, &mut out);
+                // S1's variant: rotational coupling, one contact (no LCP).
+                kernel_block::<f32, 1, true, false>(&consts, Law::Newton, x, &mut geo, &mut out);
                 acc += out.t_after.iter().sum::<f32>();
             }
             acc
