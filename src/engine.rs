@@ -773,15 +773,21 @@ fn block_stats<T: Real, const N: usize>(
     for li in 0..outs.len() {
         let la = &mut acc.laws[li];
         let out = &outs[li];
+        // Flag counts in u32 lanes (vectorised), added to the u64 totals.
+        let flags = [ENERGY_GAIN, DEGENERATE, JAMMED, UNSOLVED, RECOMPUTED, PENETRATING];
+        let mut c = [0u32; 6];
         for &st in &out.status[..count] {
-            la.samples += 1;
-            la.energy_gain += (st & ENERGY_GAIN != 0) as u64;
-            la.degenerate += (st & DEGENERATE != 0) as u64;
-            la.jammed += (st & JAMMED != 0) as u64;
-            la.unsolved += (st & UNSOLVED != 0) as u64;
-            la.recomputed += (st & RECOMPUTED != 0) as u64;
-            la.penetrating += (st & PENETRATING != 0) as u64;
+            for k in 0..6 {
+                c[k] += (st & flags[k] != 0) as u32;
+            }
         }
+        la.samples += count as u64;
+        la.energy_gain += c[0] as u64;
+        la.degenerate += c[1] as u64;
+        la.jammed += c[2] as u64;
+        la.unsolved += c[3] as u64;
+        la.recomputed += c[4] as u64;
+        la.penetrating += c[5] as u64;
         derive(geo, out, count, plan, derived);
         let d = &mut **derived;
         // Counts as vectorised compare-and-sum passes (a scatter into one

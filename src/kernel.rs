@@ -609,6 +609,14 @@ pub fn recompute<T: Real, const N: usize>(
     out: &mut LawOut<T, N>,
     count: usize,
 ) {
+    // Most blocks have no flagged lane: one vectorised test first.
+    let mut any = 0u32;
+    for st in &out.status[..count] {
+        any |= st & RECOMPUTE;
+    }
+    if any == 0 {
+        return;
+    }
     let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
     for s in 0..count {
         if out.status[s] & RECOMPUTE == 0 {
