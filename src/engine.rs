@@ -18,7 +18,7 @@ use crate::kernel::{
     check_extra_planes, geometry, impulses, post, recompute, Consts, Geometry, LawOut,
     ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTED, UNSOLVED,
 };
-use crate::lanes::Real;
+use crate::lanes::{select, Real};
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler, BLOCK};
 use crate::scene::{Precision, Scene};
@@ -332,35 +332,36 @@ impl RunAcc {
     }
 }
 
-/// Per-lane statistics of one law in a block, f64, with their masks.
-struct Derived<const N: usize> {
-    ratio: [f64; BLOCK],
-    omega: [f64; BLOCK],
-    speed: [f64; BLOCK],
+/// Per-lane statistics of one law in a block, in the kernel's precision,
+/// with their masks (weights 1 or 0, in the same type).
+struct Derived<T, const N: usize> {
+    ratio: [T; BLOCK],
+    omega: [T; BLOCK],
+    speed: [T; BLOCK],
     /// Weights (1 or 0) of impacting lanes; values are finite everywhere.
-    impacting: [f64; BLOCK],
-    lambda: [[f64; BLOCK]; N],
-    rebound: [[f64; BLOCK]; N],
-    approaching: [[f64; BLOCK]; N],
+    impacting: [T; BLOCK],
+    lambda: [[T; BLOCK]; N],
+    rebound: [[T; BLOCK]; N],
+    approaching: [[T; BLOCK]; N],
     active: [u32; BLOCK],
     /// 1 for lanes that count (in the block and not penetrating).
-    mask_valid: [f64; BLOCK],
-    mask: [f64; BLOCK],
+    mask_valid: [T; BLOCK],
+    mask: [T; BLOCK],
 }
 
-impl<const N: usize> Derived<N> {
+impl<T: Real, const N: usize> Derived<T, N> {
     fn new() -> Box<Self> {
         Box::new(Self {
-            ratio: [0.0; BLOCK],
-            omega: [0.0; BLOCK],
-            speed: [0.0; BLOCK],
-            impacting: [0.0; BLOCK],
-            lambda: [[0.0; BLOCK]; N],
-            rebound: [[0.0; BLOCK]; N],
-            approaching: [[0.0; BLOCK]; N],
+            ratio: [T::ZERO; BLOCK],
+            omega: [T::ZERO; BLOCK],
+            speed: [T::ZERO; BLOCK],
+            impacting: [T::ZERO; BLOCK],
+            lambda: [[T::ZERO; BLOCK]; N],
+            rebound: [[T::ZERO; BLOCK]; N],
+            approaching: [[T::ZERO; BLOCK]; N],
             active: [0; BLOCK],
-            mask_valid: [0.0; BLOCK],
-            mask: [0.0; BLOCK],
+            mask_valid: [T::ZERO; BLOCK],
+            mask: [T::ZERO; BLOCK],
         })
     }
 }
@@ -370,10 +371,10 @@ struct Work<T, const N: usize> {
     inputs: Box<Inputs<T>>,
     geo: Box<Geometry<T, N>>,
     outs: Vec<Box<LawOut<T, N>>>,
-    derived: Box<Derived<N>>,
+    derived: Box<Derived<T, N>>,
     /// laws[0]'s per-lane statistics, for paired differences.
-    first: Box<Derived<N>>,
-    diff: Box<[f64; BLOCK]>,
+    first: Box<Derived<T, N>>,
+    diff: Box<[T; BLOCK]>,
 }
 
 impl<T: Real, const N: usize> Work<T, N> {
@@ -384,7 +385,7 @@ impl<T: Real, const N: usize> Work<T, N> {
             outs: (0..laws).map(|_| LawOut::new()).collect(),
             derived: Derived::new(),
             first: Derived::new(),
-            diff: Box::new([0.0; BLOCK]),
+            diff: Box::new([T::ZERO; BLOCK]),
         }
     }
 }
@@ -417,55 +418,56 @@ impl StatsPlan {
     }
 }
 
-/// Per-lane f64 statistics of a law's block results. Lanes past `count`
-/// and penetrating lanes get weight 0, and every value is made finite (0 where
-/// its weight is 0), so masked sums are plain arithmetic. Ratios and norms
-/// are computed in the kernel's precision (the values are no more accurate
-/// than that), then widened for the sums.
+/// Per-lane statistics of a law's block results. Lanes past `count` and
+/// penetrating lanes get weight 0, and every value is made finite (0 where
+/// its weight is 0), so masked sums are plain arithmetic. Everything stays
+/// in the kernel's precision (the values are no more accurate than that);
+/// the accumulators combine blocks in f64.
 #[inline(always)]
 fn derive<T: Real, const N: usize>(
     geo: &Geometry<T, N>,
     out: &LawOut<T, N>,
     count: usize,
     plan: StatsPlan,
-    d: &mut Derived<N>,
+    d: &mut Derived<T, N>,
 ) {
     let approach_mask = (1u32 << N) - 1;
+    let w01 = |c: bool| select(c, T::ONE, T::ZERO);
     // Separate simple loops with non-short-circuit logic: each one
     // vectorises on its own.
     for s in 0..BLOCK {
         let st = out.status[s];
         let valid = (s < count) & (st & PENETRATING == 0);
         let approaching = st & approach_mask;
-        d.impacting[s] = (valid & (approaching != 0)) as u32 as f64;
-        d.mask_valid[s] = valid as u32 as f64;
+        d.impacting[s] = w01(valid & (approaching != 0));
+        d.mask_valid[s] = w01(valid);
         d.active[s] = (st >> ACTIVE_SHIFT) & approach_mask;
         for i in 0..N {
-            d.approaching[i][s] = (valid & (approaching & (1 << i) != 0)) as u32 as f64;
+            d.approaching[i][s] = w01(valid & (approaching & (1 << i) != 0));
         }
     }
     for s in 0..BLOCK {
-        let ratio = (out.t_after[s] / geo.t_before[s]).to_f64();
-        d.ratio[s] = if d.impacting[s] > 0.0 { ratio } else { 0.0 };
+        let ratio = out.t_after[s] / geo.t_before[s];
+        d.ratio[s] = select(d.impacting[s] > T::ZERO, ratio, T::ZERO);
     }
     if plan.constant_spin.is_none() {
         for s in 0..BLOCK {
             let (a, b, c) = (out.w_after[0][s], out.w_after[1][s], out.w_after[2][s]);
-            let w = (a * a + b * b + c * c).sqrt().to_f64();
-            d.omega[s] = if d.impacting[s] > 0.0 { w } else { 0.0 };
+            let w = (a * a + b * b + c * c).sqrt();
+            d.omega[s] = select(d.impacting[s] > T::ZERO, w, T::ZERO);
         }
     }
     for s in 0..BLOCK {
         let (a, b, c) = (out.v_after[0][s], out.v_after[1][s], out.v_after[2][s]);
-        let v = (a * a + b * b + c * c).sqrt().to_f64();
-        d.speed[s] = if d.impacting[s] > 0.0 { v } else { 0.0 };
+        let v = (a * a + b * b + c * c).sqrt();
+        d.speed[s] = select(d.impacting[s] > T::ZERO, v, T::ZERO);
     }
     for i in 0..N {
         for s in 0..BLOCK {
-            let on = d.impacting[s] > 0.0;
-            d.lambda[i][s] = if on { out.lambda[i][s].to_f64() } else { 0.0 };
-            let r = (-out.vn_after[i][s] / geo.vn[i][s]).to_f64();
-            d.rebound[i][s] = if d.approaching[i][s] > 0.0 { r } else { 0.0 };
+            let on = d.impacting[s] > T::ZERO;
+            d.lambda[i][s] = select(on, out.lambda[i][s], T::ZERO);
+            let r = -out.vn_after[i][s] / geo.vn[i][s];
+            d.rebound[i][s] = select(d.approaching[i][s] > T::ZERO, r, T::ZERO);
         }
     }
 }
@@ -728,23 +730,23 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
 /// its weight, 0 or 1). Exact zeros are counted in the vector pass;
 /// negatives (rare: a rebound ratio) one by one.
 #[inline(always)]
-fn scatter(h: &mut LogHistogram, xs: &[f64; BLOCK], w: &[f64; BLOCK], bins: &mut [u16; BLOCK]) {
+fn scatter<T: Real>(h: &mut LogHistogram, xs: &[T; BLOCK], w: &[T; BLOCK], bins: &mut [u16; BLOCK]) {
     let mut zeros = 0u32;
     let mut negative = false;
     for s in 0..BLOCK {
-        bins[s] = LogHistogram::bin(xs[s]);
-        zeros += ((w[s] > 0.0) & (xs[s] == 0.0)) as u32;
-        negative |= (w[s] > 0.0) & (xs[s] < 0.0);
+        bins[s] = LogHistogram::bin(xs[s].to_f64());
+        zeros += ((w[s] > T::ZERO) & (xs[s] == T::ZERO)) as u32;
+        negative |= (w[s] > T::ZERO) & (xs[s] < T::ZERO);
     }
     let t = h.positive_bins();
     for s in 0..BLOCK {
-        t[bins[s] as usize & (BINS - 1)] += ((w[s] > 0.0) & (xs[s] > 0.0)) as u64;
+        t[bins[s] as usize & (BINS - 1)] += ((w[s] > T::ZERO) & (xs[s] > T::ZERO)) as u64;
     }
     h.add_zeros(zeros as u64);
     if negative {
         for s in 0..BLOCK {
-            if w[s] > 0.0 && xs[s] < 0.0 {
-                h.push(xs[s]);
+            if w[s] > T::ZERO && xs[s] < T::ZERO {
+                h.push(xs[s].to_f64());
             }
         }
     }
@@ -763,9 +765,9 @@ fn block_stats<T: Real, const N: usize>(
     outs: &[Box<LawOut<T, N>>],
     count: usize,
     plan: StatsPlan,
-    derived: &mut Box<Derived<N>>,
-    first: &mut Box<Derived<N>>,
-    diff: &mut [f64; BLOCK],
+    derived: &mut Box<Derived<T, N>>,
+    first: &mut Box<Derived<T, N>>,
+    diff: &mut [T; BLOCK],
     acc: &mut RunAcc,
 ) {
     let mut bins = [0u16; BLOCK];
@@ -794,13 +796,13 @@ fn block_stats<T: Real, const N: usize>(
         // counter per set would chain every sample through memory).
         let mut impacts = 0u32;
         for s in 0..BLOCK {
-            impacts += (d.impacting[s] > 0.0) as u32;
+            impacts += (d.impacting[s] > T::ZERO) as u32;
         }
         la.impacts += impacts as u64;
         for m in 0..la.active_sets.len() {
             let mut c = 0u32;
             for s in 0..BLOCK {
-                c += ((d.active[s] == m as u32) & (d.mask_valid[s] > 0.0)) as u32;
+                c += ((d.active[s] == m as u32) & (d.mask_valid[s] > T::ZERO)) as u32;
             }
             la.active_sets[m] += c as u64;
             la.groups[m].samples += c as u64;
@@ -868,7 +870,7 @@ fn block_stats<T: Real, const N: usize>(
             let mut both = 0u32;
             for s in 0..BLOCK {
                 d.mask[s] = d.impacting[s] * f.impacting[s];
-                both += (d.mask[s] > 0.0) as u32;
+                both += (d.mask[s] > T::ZERO) as u32;
             }
             let p = &mut acc.pairs[li - 1];
             for (k, (target, a, b)) in [
@@ -897,9 +899,9 @@ fn block_stats<T: Real, const N: usize>(
 /// histograms per set (the "all" histograms are their sums, made by
 /// [`RunAcc::finish`]).
 #[inline(always)]
-fn block_stats_by_set<const N: usize>(
+fn block_stats_by_set<T: Real, const N: usize>(
     la: &mut LawAcc,
-    d: &mut Derived<N>,
+    d: &mut Derived<T, N>,
     count: usize,
     plan: StatsPlan,
     bins: &mut [u16; BLOCK],
@@ -913,8 +915,8 @@ fn block_stats_by_set<const N: usize>(
         // Integer counting keeps this loop vectorisable.
         let mut hits = 0u32;
         for s in 0..BLOCK {
-            let on = (d.active[s] == m as u32) as u32 & (d.impacting[s] > 0.0) as u32;
-            d.mask[s] = on as f64;
+            let on = (d.active[s] == m as u32) as u32 & (d.impacting[s] > T::ZERO) as u32;
+            d.mask[s] = select(on != 0, T::ONE, T::ZERO);
             hits += on;
         }
         if hits > 0 {
@@ -944,9 +946,9 @@ fn block_stats_by_set<const N: usize>(
         let mut other = false;
         let mut negative = false;
         for s in 0..BLOCK {
-            bins[s] = LogHistogram::bin(xs[s]);
-            other |= (d.impacting[s] > 0.0) & !(xs[s] > 0.0);
-            negative |= (d.impacting[s] > 0.0) & (xs[s] < 0.0);
+            bins[s] = LogHistogram::bin(xs[s].to_f64());
+            other |= (d.impacting[s] > T::ZERO) & !(xs[s] > T::ZERO);
+            negative |= (d.impacting[s] > T::ZERO) & (xs[s] < T::ZERO);
         }
         // Branch-free: every lane adds its weight (0 or 1) to its set's
         // table, so every set present in the block gets one.
@@ -957,7 +959,7 @@ fn block_stats_by_set<const N: usize>(
             }
         }
         for s in 0..BLOCK {
-            let on = (d.impacting[s] > 0.0) & (xs[s] > 0.0);
+            let on = (d.impacting[s] > T::ZERO) & (xs[s] > T::ZERO);
             if let Some(t) = &mut tables[d.active[s] as usize & 7] {
                 t[bins[s] as usize & (BINS - 1)] += on as u64;
             }
@@ -971,17 +973,17 @@ fn block_stats_by_set<const N: usize>(
                 }
                 let mut zeros = 0u32;
                 for s in 0..BLOCK {
-                    zeros += ((d.active[s] == m as u32) & (d.impacting[s] > 0.0) & (xs[s] == 0.0))
+                    zeros += ((d.active[s] == m as u32) & (d.impacting[s] > T::ZERO) & (xs[s] == T::ZERO))
                         as u32;
                 }
                 group_stat(g, k).hist.add_zeros(zeros as u64);
             }
             if negative {
                 for s in 0..count {
-                    if d.impacting[s] > 0.0 && xs[s] < 0.0 {
+                    if d.impacting[s] > T::ZERO && xs[s] < T::ZERO {
                         group_stat(&mut la.groups[d.active[s] as usize], k)
                             .hist
-                            .push(xs[s]);
+                            .push(xs[s].to_f64());
                     }
                 }
             }

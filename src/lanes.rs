@@ -40,6 +40,8 @@ pub trait Real:
     const HALF: Self;
     /// Machine epsilon.
     const EPSILON: Self;
+    const INFINITY: Self;
+    const NEG_INFINITY: Self;
     /// Name used in tables: "f32" or "f64".
     const NAME: &'static str;
 
@@ -76,6 +78,8 @@ macro_rules! real_impl {
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
             const EPSILON: Self = <$t>::EPSILON;
+            const INFINITY: Self = <$t>::INFINITY;
+            const NEG_INFINITY: Self = <$t>::NEG_INFINITY;
             const NAME: &'static str = $name;
 
             #[inline(always)]
@@ -259,25 +263,25 @@ impl CounterRng {
     }
 }
 
-/// Eight f64 lanes as one value, for the statistics' masked sums.
+/// Sixteen lanes of a [`Real`] as one value, for the statistics' masked sums.
 ///
-/// LLVM's SLP vectoriser does not pack eight scalar partial sums kept in an
-/// array, but it does pack whole-value operations on an aligned 8-lane
-/// struct: each operation below compiles to one AVX-512 instruction (two on
-/// AVX2, four on SSE2). Lane j always sums the same samples in the same
-/// order, so results do not depend on the SIMD width.
+/// LLVM's SLP vectoriser does not pack scalar partial sums kept in an
+/// array, but it does pack whole-value operations on an aligned lane
+/// struct: each operation below compiles to one AVX-512 instruction for f32
+/// (two for f64; more on AVX2 and SSE2). Lane j always sums the same samples
+/// in the same order, so results do not depend on the SIMD width.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C, align(64))]
-pub struct F64x8(pub [f64; 8]);
+pub struct X16<T>(pub [T; 16]);
 
-macro_rules! f64x8_binop {
+macro_rules! x16_binop {
     ($trait:ident, $name:ident, $op:tt) => {
-        impl $trait for F64x8 {
+        impl<T: Real> $trait for X16<T> {
             type Output = Self;
             #[inline(always)]
             fn $name(self, o: Self) -> Self {
                 let mut r = self;
-                for j in 0..8 {
+                for j in 0..16 {
                     r.0[j] = self.0[j] $op o.0[j];
                 }
                 r
@@ -285,27 +289,27 @@ macro_rules! f64x8_binop {
         }
     };
 }
-f64x8_binop!(Add, add, +);
-f64x8_binop!(Sub, sub, -);
-f64x8_binop!(Mul, mul, *);
+x16_binop!(Add, add, +);
+x16_binop!(Sub, sub, -);
+x16_binop!(Mul, mul, *);
 
-impl F64x8 {
+impl<T: Real> X16<T> {
     #[inline(always)]
-    pub fn splat(x: f64) -> Self {
-        Self([x; 8])
+    pub fn splat(x: T) -> Self {
+        Self([x; 16])
     }
-    /// Lanes `8c .. 8c + 8` of `xs`.
+    /// Lanes `16c .. 16c + 16` of `xs`.
     #[inline(always)]
-    pub fn load(xs: &[f64], c: usize) -> Self {
-        let mut r = Self([0.0; 8]);
-        r.0.copy_from_slice(&xs[8 * c..8 * c + 8]);
+    pub fn load(xs: &[T], c: usize) -> Self {
+        let mut r = Self([T::ZERO; 16]);
+        r.0.copy_from_slice(&xs[16 * c..16 * c + 16]);
         r
     }
     /// Lane-wise minimum (operands are never NaN here).
     #[inline(always)]
     pub fn min(self, o: Self) -> Self {
         let mut r = self;
-        for j in 0..8 {
+        for j in 0..16 {
             r.0[j] = if o.0[j] < self.0[j] {
                 o.0[j]
             } else {
@@ -317,7 +321,7 @@ impl F64x8 {
     #[inline(always)]
     pub fn max(self, o: Self) -> Self {
         let mut r = self;
-        for j in 0..8 {
+        for j in 0..16 {
             r.0[j] = if o.0[j] > self.0[j] {
                 o.0[j]
             } else {
@@ -330,8 +334,8 @@ impl F64x8 {
     #[inline(always)]
     pub fn select_positive(w: Self, a: Self, b: Self) -> Self {
         let mut r = a;
-        for j in 0..8 {
-            r.0[j] = if w.0[j] > 0.0 { a.0[j] } else { b.0[j] };
+        for j in 0..16 {
+            r.0[j] = if w.0[j] > T::ZERO { a.0[j] } else { b.0[j] };
         }
         r
     }

@@ -13,33 +13,38 @@ const SUB: usize = 1 << SUB_BITS;
 pub const BINS: usize = (MAX_EXP - MIN_EXP) as usize * SUB;
 const _: () = assert!(BINS.is_power_of_two());
 
-use crate::lanes::F64x8;
+use crate::lanes::{Real, X16};
 
-/// Eight-lane partial sums of a block: weight, shifted sum, shifted sum of
-/// squares, min and max of the weighted values. A function of its own,
-/// compiled per target: inlined into a large caller, LLVM scalarises part
-/// of it.
+/// Sixteen-lane partial sums of a block, in the values' own precision:
+/// weight, shifted sum, shifted sum of squares, min and max of the weighted
+/// values. A function of its own, compiled per target: inlined into a large
+/// caller, LLVM scalarises part of it.
+///
+/// In f32 (the f32 kernel's statistics) a block's sums are over at most a
+/// few hundred values, shifted by the batch's first value, so their
+/// rounding (≲ 10⁻⁵ relative to the block's spread) is far below the Monte
+/// Carlo error; blocks are then combined in f64.
 #[multiversion::multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
     "x86_64+avx2+fma",
 ))]
-fn masked_sums<const B: usize>(xs: &[f64; B], w: &[f64; B], shift: f64) -> [F64x8; 5] {
-    let shift = F64x8::splat(shift);
-    let (inf, ninf) = (F64x8::splat(f64::INFINITY), F64x8::splat(f64::NEG_INFINITY));
-    let mut n = F64x8::splat(0.0);
+fn masked_sums<T: Real, const B: usize>(xs: &[T; B], w: &[T; B], shift: T) -> [X16<T>; 5] {
+    let shift = X16::splat(shift);
+    let (inf, ninf) = (X16::splat(T::INFINITY), X16::splat(T::NEG_INFINITY));
+    let mut n = X16::splat(T::ZERO);
     let mut s1 = n;
     let mut s2 = n;
     let mut lo = inf;
     let mut hi = ninf;
-    for c in 0..B / 8 {
-        let x = F64x8::load(xs, c);
-        let wk = F64x8::load(w, c);
+    for c in 0..B / 16 {
+        let x = X16::load(xs, c);
+        let wk = X16::load(w, c);
         let d = (x - shift) * wk;
         n = n + wk;
         s1 = s1 + d;
         s2 = s2 + d * d;
-        lo = lo.min(F64x8::select_positive(wk, x, inf));
-        hi = hi.max(F64x8::select_positive(wk, x, ninf));
+        lo = lo.min(X16::select_positive(wk, x, inf));
+        hi = hi.max(X16::select_positive(wk, x, ninf));
     }
     [n, s1, s2, lo, hi]
 }
@@ -114,31 +119,33 @@ impl Moments {
     /// accumulators, so the loop vectorises and the order of additions is
     /// fixed.
     #[inline(always)]
-    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+    pub fn push_weighted<T: Real, const B: usize>(&mut self, xs: &[T; B], w: &[T; B]) {
         if self.pending_n == 0 {
-            match xs.iter().zip(w).find(|(_, &m)| m > 0.0) {
-                Some((&x, _)) => self.shift = x,
+            match xs.iter().zip(w).find(|(_, &m)| m > T::ZERO) {
+                Some((&x, _)) => self.shift = x.to_f64(),
                 None => return,
             }
         }
-        let [n, s1, s2, lo, hi] = masked_sums(xs, w, self.shift);
+        // The shift is a value of the stream, so exact in its type.
+        let [n, s1, s2, lo, hi] = masked_sums(xs, w, T::from_f64(self.shift));
         let (mut n, mut s1, mut s2, mut lo, mut hi) = (n, s1, s2, lo, hi);
-        for k in B / 8 * 8..B {
-            if w[k] > 0.0 {
-                let d = xs[k] - self.shift;
-                n.0[0] += 1.0;
+        let shift = T::from_f64(self.shift);
+        for k in B / 16 * 16..B {
+            if w[k] > T::ZERO {
+                let d = xs[k] - shift;
+                n.0[0] += T::ONE;
                 s1.0[0] += d;
                 s2.0[0] += d * d;
                 lo.0[0] = lo.0[0].min(xs[k]);
                 hi.0[0] = hi.0[0].max(xs[k]);
             }
         }
-        for j in 0..8 {
-            self.pending_n += n.0[j] as u64;
-            self.s1 += s1.0[j];
-            self.s2 += s2.0[j];
-            self.min = self.min.min(lo.0[j]);
-            self.max = self.max.max(hi.0[j]);
+        for j in 0..16 {
+            self.pending_n += n.0[j].to_f64() as u64;
+            self.s1 += s1.0[j].to_f64();
+            self.s2 += s2.0[j].to_f64();
+            self.min = self.min.min(lo.0[j].to_f64());
+            self.max = self.max.max(hi.0[j].to_f64());
         }
     }
 
@@ -278,29 +285,29 @@ impl LogHistogram {
     /// pass, increments by the weight (no branch); values ≤ 0 go through
     /// [`Self::push`].
     #[inline(always)]
-    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
-        if self.pos.is_empty() && !w.iter().any(|&x| x > 0.0) {
+    pub fn push_weighted<T: Real, const B: usize>(&mut self, xs: &[T; B], w: &[T; B]) {
+        if self.pos.is_empty() && !w.iter().any(|&x| x > T::ZERO) {
             return;
         }
         let mut idx = [0u16; B];
         let mut negative = false;
         let mut zeros = 0u64;
         for k in 0..B {
-            idx[k] = bin_of(xs[k].abs()) as u16;
-            negative |= (w[k] > 0.0) & (xs[k] < 0.0);
-            zeros += ((w[k] > 0.0) & (xs[k] == 0.0)) as u64;
+            idx[k] = bin_of(xs[k].to_f64().abs()) as u16;
+            negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
+            zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u64;
         }
         let pos = self.positive_bins();
         for k in 0..B {
-            pos[idx[k] as usize & (BINS - 1)] += ((w[k] > 0.0) & (xs[k] > 0.0)) as u64;
+            pos[idx[k] as usize & (BINS - 1)] += ((w[k] > T::ZERO) & (xs[k] > T::ZERO)) as u64;
         }
         // Exact zeros (a sphere's |ω⁺| = 0, an inactive plane's impulse)
         // are counted in the vector pass; negatives are rare.
         self.zero += zeros;
         if negative {
             for k in 0..B {
-                if w[k] > 0.0 && xs[k] < 0.0 {
-                    self.push(xs[k]);
+                if w[k] > T::ZERO && xs[k] < T::ZERO {
+                    self.push(xs[k].to_f64());
                 }
             }
         }
@@ -477,7 +484,7 @@ pub struct Stat {
 
 impl Stat {
     #[inline(always)]
-    pub fn push_weighted<const B: usize>(&mut self, xs: &[f64; B], w: &[f64; B]) {
+    pub fn push_weighted<T: Real, const B: usize>(&mut self, xs: &[T; B], w: &[T; B]) {
         self.moments.push_weighted(xs, w);
         self.hist.push_weighted(xs, w);
     }
