@@ -733,14 +733,18 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
 fn scatter<T: Real>(h: &mut LogHistogram, xs: &[T; BLOCK], w: &[T; BLOCK], bins: &mut [u16; BLOCK]) {
     let mut zeros = 0u32;
     let mut negative = false;
+    let mut inc = [0u32; BLOCK];
     for s in 0..BLOCK {
         bins[s] = LogHistogram::bin(xs[s].to_f64());
+        inc[s] = ((w[s] > T::ZERO) & (xs[s] > T::ZERO)) as u32;
         zeros += ((w[s] > T::ZERO) & (xs[s] == T::ZERO)) as u32;
         negative |= (w[s] > T::ZERO) & (xs[s] < T::ZERO);
     }
+    // The scatter itself: a load, an add and a store per lane, with the
+    // weights computed above in the vector pass.
     let t = h.positive_bins();
     for s in 0..BLOCK {
-        t[bins[s] as usize & (BINS - 1)] += ((w[s] > T::ZERO) & (xs[s] > T::ZERO)) as u64;
+        t[bins[s] as usize & (BINS - 1)] += inc[s] as u64;
     }
     h.add_zeros(zeros as u64);
     if negative {
