@@ -59,6 +59,36 @@ fn kernel(c: &mut Criterion) {
     g.finish();
 }
 
+/// What each effect costs: every scene through its specialised kernel and
+/// through the kernel with every effect compiled in (`--all-effects`), end
+/// to end on one thread. `cargo bench --bench kernel -- effects`.
+fn effects(c: &mut Criterion) {
+    let mut g = c.benchmark_group("effects");
+    g.throughput(Throughput::Elements(SAMPLES));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
+    for name in ["floor_sphere", "floor", "corner2_paper", "corner3"] {
+        let s = scene(name, "newton", "f32");
+        for all_effects in [false, true] {
+            let opts = RunOptions {
+                threads: 1,
+                all_effects,
+                ..Default::default()
+            };
+            let id = if all_effects {
+                "all_effects"
+            } else {
+                "specialised"
+            };
+            g.bench_function(BenchmarkId::new(name, id), |b| {
+                b.iter(|| run(&s, &opts).expect("pool"))
+            });
+        }
+    }
+    g.finish();
+}
+
 /// The scalar f64 reference, one sample at a time: the baseline the SoA
 /// kernel is measured against.
 fn reference(c: &mut Criterion) {
@@ -101,5 +131,5 @@ fn reference(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, kernel, reference);
+criterion_group!(benches, kernel, effects, reference);
 criterion_main!(benches);

@@ -730,7 +730,12 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
 /// its weight, 0 or 1). Exact zeros are counted in the vector pass;
 /// negatives (rare: a rebound ratio) one by one.
 #[inline(always)]
-fn scatter<T: Real>(h: &mut LogHistogram, xs: &[T; BLOCK], w: &[T; BLOCK], bins: &mut [u16; BLOCK]) {
+fn scatter<T: Real>(
+    h: &mut LogHistogram,
+    xs: &[T; BLOCK],
+    w: &[T; BLOCK],
+    bins: &mut [u16; BLOCK],
+) {
     let mut zeros = 0u32;
     let mut negative = false;
     let mut inc = [0u32; BLOCK];
@@ -780,7 +785,14 @@ fn block_stats<T: Real, const N: usize>(
         let la = &mut acc.laws[li];
         let out = &outs[li];
         // Flag counts in u32 lanes (vectorised), added to the u64 totals.
-        let flags = [ENERGY_GAIN, DEGENERATE, JAMMED, UNSOLVED, RECOMPUTED, PENETRATING];
+        let flags = [
+            ENERGY_GAIN,
+            DEGENERATE,
+            JAMMED,
+            UNSOLVED,
+            RECOMPUTED,
+            PENETRATING,
+        ];
         let mut c = [0u32; 6];
         for &st in &out.status[..count] {
             for k in 0..6 {
@@ -977,8 +989,9 @@ fn block_stats_by_set<T: Real, const N: usize>(
                 }
                 let mut zeros = 0u32;
                 for s in 0..BLOCK {
-                    zeros += ((d.active[s] == m as u32) & (d.impacting[s] > T::ZERO) & (xs[s] == T::ZERO))
-                        as u32;
+                    zeros += ((d.active[s] == m as u32)
+                        & (d.impacting[s] > T::ZERO)
+                        & (xs[s] == T::ZERO)) as u32;
                 }
                 group_stat(g, k).hist.add_zeros(zeros as u64);
             }

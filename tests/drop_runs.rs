@@ -25,16 +25,70 @@ fn scene_text(text: &str, tag: &str) -> Result<Scene, String> {
 #[test]
 fn derived_effect_sets_of_the_shipped_scenes() {
     // (scene, rotational coupling, coupled contacts, flight, rotation in
-    // flight, bounces)
+    // flight, bounces, kernel variant, constant |ω⁺|)
     let want = [
-        ("floor", true, false, false, "none", 1),
-        ("floor_sphere", false, false, false, "none", 1),
-        ("corner2_paper", true, true, false, "none", 1),
-        ("corner3", true, true, false, "none", 1),
-        ("sweep_aspect_ratio", true, false, false, "none", 1),
-        ("accuracy_corner3", true, true, false, "none", 1),
-        ("drop_corner", true, true, true, "rk4", 5),
-        ("drop_dice", true, false, true, "rk4", 20),
+        ("floor", true, false, false, "none", 1, "rotation", None),
+        (
+            "floor_sphere",
+            false,
+            false,
+            false,
+            "none",
+            1,
+            "closed-form",
+            Some(0.0),
+        ),
+        (
+            "corner2_paper",
+            true,
+            true,
+            false,
+            "none",
+            1,
+            "rotation+lcp",
+            None,
+        ),
+        (
+            "corner3",
+            true,
+            true,
+            false,
+            "none",
+            1,
+            "rotation+lcp",
+            None,
+        ),
+        (
+            "sweep_aspect_ratio",
+            true,
+            false,
+            false,
+            "none",
+            1,
+            "rotation",
+            None,
+        ),
+        (
+            "accuracy_corner3",
+            true,
+            true,
+            false,
+            "none",
+            1,
+            "rotation+lcp",
+            None,
+        ),
+        (
+            "drop_corner",
+            true,
+            true,
+            true,
+            "rk4",
+            5,
+            "rotation+lcp",
+            None,
+        ),
+        ("drop_dice", true, false, true, "rk4", 20, "rotation", None),
     ];
     let mut shipped: Vec<String> = std::fs::read_dir(repo("configs"))
         .unwrap()
@@ -47,7 +101,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
     let mut listed: Vec<String> = want.iter().map(|w| w.0.to_string()).collect();
     listed.sort();
     assert_eq!(shipped, listed, "a shipped scene has no effect snapshot");
-    for (name, rot, coupled, flight, rotation, bounces) in want {
+    for (name, rot, coupled, flight, rotation, bounces, kernel, spin) in want {
         let s = load_scene(
             &repo(&format!("configs/{name}.toml")),
             &Overrides::default(),
@@ -60,11 +114,19 @@ fn derived_effect_sets_of_the_shipped_scenes() {
                 e.coupled_contacts,
                 e.flight,
                 e.flight_rotation,
-                e.bounces
+                e.bounces,
+                impactmc::engine::KernelVariant::of(&s, false).name(),
+                e.constant_spin,
             ),
-            (rot, coupled, flight, rotation, bounces),
+            (rot, coupled, flight, rotation, bounces, kernel, spin),
             "{name}: {}",
             e.line()
+        );
+        // No shipped scene asks for more than the default statistics.
+        assert_eq!(
+            e.statistics.describe(),
+            "quantiles of energy_ratio, omega_after_norm, velocity_after_norm",
+            "{name}"
         );
     }
 }
