@@ -8,7 +8,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use impactmc::engine::{run, RunOptions};
+use impactmc::engine::{run, Keep, RunOptions};
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use impactmc::sampler::Sampler;
 use impactmc::scene::{load_scene, Overrides, Scene};
@@ -73,7 +73,7 @@ fn effects(c: &mut Criterion) {
         for all_effects in [false, true] {
             let opts = RunOptions {
                 threads: 1,
-                all_effects,
+                keep: if all_effects { Keep::ALL } else { Keep::NONE },
                 ..Default::default()
             };
             let id = if all_effects {

@@ -36,14 +36,55 @@ pub struct KernelVariant {
     pub coupled_contacts: bool,
 }
 
+/// Effects to keep computing although the scene does not need them (same
+/// answers, more work): for measuring what compiling an effect out saves.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Keep {
+    /// Lever arms, per-lane G, ω⁺ and the orientation draws.
+    pub rotation: bool,
+    /// The LCP over the touching planes.
+    pub lcp: bool,
+    /// Every statistic: all quantiles and the per-set groups.
+    pub statistics: bool,
+}
+
+impl Keep {
+    pub const NONE: Self = Self {
+        rotation: false,
+        lcp: false,
+        statistics: false,
+    };
+    pub const ALL: Self = Self {
+        rotation: true,
+        lcp: true,
+        statistics: true,
+    };
+
+    /// Parses `rotation`, `lcp`, `statistics` or `all`.
+    pub fn with(mut self, name: &str) -> Result<Self, String> {
+        match name {
+            "rotation" => self.rotation = true,
+            "lcp" => self.lcp = true,
+            "statistics" => self.statistics = true,
+            "all" => self = Self::ALL,
+            other => {
+                return Err(format!(
+                    "--keep: unknown effect {other:?} (expected rotation, lcp, statistics or all)"
+                ))
+            }
+        }
+        Ok(self)
+    }
+}
+
 impl KernelVariant {
-    /// The scene's variant, or with `all_effects` the kernel that computes
-    /// every effect whatever the scene (for measuring what an effect costs).
-    pub fn of(scene: &Scene, all_effects: bool) -> Self {
+    /// The scene's variant, with the effects in `keep` compiled in whatever
+    /// the scene needs.
+    pub fn of(scene: &Scene, keep: Keep) -> Self {
         let e = scene.effects();
         Self {
-            rotational_coupling: all_effects || e.rotational_coupling,
-            coupled_contacts: all_effects || e.coupled_contacts,
+            rotational_coupling: keep.rotation || e.rotational_coupling,
+            coupled_contacts: keep.lcp || e.coupled_contacts,
         }
     }
 
@@ -403,9 +444,9 @@ struct StatsPlan {
 }
 
 impl StatsPlan {
-    fn of(scene: &Scene, all_effects: bool) -> Self {
+    fn of(scene: &Scene, keep: Keep) -> Self {
         let e = scene.effects();
-        let st = if all_effects {
+        let st = if keep.statistics {
             crate::scene::Statistics::ALL
         } else {
             e.statistics
@@ -413,7 +454,8 @@ impl StatsPlan {
         Self {
             quantiles: st.quantiles,
             by_set: st.by_active_set,
-            constant_spin: if all_effects { None } else { e.constant_spin },
+            // With rotation kept, |ω⁺| is computed per sample.
+            constant_spin: if keep.rotation { None } else { e.constant_spin },
         }
     }
 }
@@ -1034,9 +1076,9 @@ pub struct RunOptions {
     pub progress: bool,
     /// Run only this shard's batches.
     pub shard: Option<Shard>,
-    /// Use the kernel that computes every effect, whatever the scene needs
-    /// (same answers; for measuring what the specialisation saves).
-    pub all_effects: bool,
+    /// Effects computed although the scene does not need them (same
+    /// answers; for measuring what the specialisation saves).
+    pub keep: Keep,
 }
 
 /// Batches merged per step: bounds memory whatever the sample count.
@@ -1322,8 +1364,8 @@ pub fn run_with_samples(
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
     let r = range.clone();
-    let variant = KernelVariant::of(scene, opts.all_effects);
-    let plan = StatsPlan::of(scene, opts.all_effects);
+    let variant = KernelVariant::of(scene, opts.keep);
+    let plan = StatsPlan::of(scene, opts.keep);
     let nodes = pool
         .install(|| with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink)))
         .map_err(RunError::Sink)?;
@@ -1423,7 +1465,13 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
 /// (with its f64 fallback) under one law, at the scene's precision. For
 /// tests and per-sample inspection; `run` is the fast path.
 pub fn evaluate_samples(scene: &Scene, law: Law, first: u64, count: usize) -> Vec<SampleOutcome> {
-    evaluate_samples_with(scene, law, first, count, KernelVariant::of(scene, false))
+    evaluate_samples_with(
+        scene,
+        law,
+        first,
+        count,
+        KernelVariant::of(scene, Keep::NONE),
+    )
 }
 
 /// [`evaluate_samples`] through a given kernel variant (tests compare the

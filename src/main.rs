@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use impactmc::case::{parse_case, Case};
-use impactmc::engine::{RunOptions, Shard};
+use impactmc::engine::{Keep, RunOptions, Shard};
 use impactmc::output::prepare_dir;
 use impactmc::scene::Overrides;
 use impactmc::study::{merge_study, run_study, StudyError};
@@ -111,9 +111,12 @@ struct RunArgs {
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
-    /// Run the kernel that computes every effect (rotational coupling, the
-    /// LCP, all statistics) whatever the scene needs. Same answers, slower:
-    /// for measuring what the effect specialisation saves.
+    /// Keep computing effects the scene does not need: rotation, lcp,
+    /// statistics or all (comma-separated or repeated). Same answers,
+    /// slower: for measuring what compiling an effect out saves.
+    #[arg(long, value_delimiter = ',')]
+    keep: Vec<String>,
+    /// Same as `--keep all`.
     #[arg(long)]
     all_effects: bool,
 }
@@ -225,9 +228,15 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     let name = points[0].scene.name().to_string();
     // The effect set, before any work (stderr: stdout may be JSON).
     eprintln!("{}", points[0].scene.effects().line());
-    if args.all_effects {
-        eprintln!("kernel: every effect compiled in (--all-effects)");
+    let mut keep = if args.all_effects {
+        Keep::ALL
+    } else {
+        Keep::NONE
+    };
+    for k in &args.keep {
+        keep = keep.with(k).map_err(bad_input)?;
     }
+
     if points[0].scene.drop_box().is_some() {
         if points.len() > 1 || shard.is_some() || points[0].scene.effects().per_sample {
             return Err(bad_input(format!(
@@ -262,6 +271,16 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         }
         return Ok(());
     }
+    let variant = impactmc::engine::KernelVariant::of(&points[0].scene, keep);
+    eprintln!(
+        "kernel: {}{}",
+        variant.name(),
+        if keep == Keep::NONE {
+            String::new()
+        } else {
+            format!(" (kept although not needed: {keep:?})")
+        }
+    );
     let dir = args.out.clone().unwrap_or_else(|| match shard {
         Some(s) => {
             PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))
@@ -276,7 +295,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             threads: args.threads,
             progress: true,
             shard,
-            all_effects: args.all_effects,
+            keep,
         },
         &dir,
     )

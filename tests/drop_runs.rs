@@ -115,7 +115,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
                 e.flight,
                 e.flight_rotation,
                 e.bounces,
-                impactmc::engine::KernelVariant::of(&s, false).name(),
+                impactmc::engine::KernelVariant::of(&s, impactmc::engine::Keep::NONE).name(),
                 e.constant_spin,
             ),
             (rot, coupled, flight, rotation, bounces, kernel, spin),

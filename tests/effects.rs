@@ -6,7 +6,9 @@
 
 use std::path::Path;
 
-use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, KernelVariant, RunOptions};
+use impactmc::engine::{
+    evaluate_samples, evaluate_samples_with, run, Keep, KernelVariant, RunOptions,
+};
 use impactmc::physics::Law;
 use impactmc::sampler::Sampler;
 use impactmc::scene::{load_scene, Overrides, Scene};
@@ -100,8 +102,12 @@ fn scenes(precision: &str) -> Vec<(String, Scene, &'static str)> {
 #[test]
 fn each_scene_gets_the_variant_its_geometry_needs() {
     for (name, s, want) in scenes("f64") {
-        assert_eq!(KernelVariant::of(&s, false).name(), want, "{name}");
-        assert_eq!(KernelVariant::of(&s, true).name(), "rotation+lcp", "{name}");
+        assert_eq!(KernelVariant::of(&s, Keep::NONE).name(), want, "{name}");
+        assert_eq!(
+            KernelVariant::of(&s, Keep::ALL).name(),
+            "rotation+lcp",
+            "{name}"
+        );
     }
 }
 
@@ -174,7 +180,7 @@ fn skipped_draws_shift_no_other_draw() {
 fn summary(s: &Scene, all_effects: bool) -> Summary {
     let opts = RunOptions {
         threads: 2,
-        all_effects,
+        keep: if all_effects { Keep::ALL } else { Keep::NONE },
         ..RunOptions::default()
     };
     Summary::new(s, &run(s, &opts).unwrap())
