@@ -938,7 +938,10 @@ impl Effects {
         if let Some(w) = self.constant_spin {
             s.push_str(&format!("; |ω⁺| = {w} in every sample (not computed)"));
         }
-        s.push_str(&format!("; statistics: {}", self.statistics.describe()));
+        if !self.flight {
+            // Drop studies keep their own per-bounce statistics.
+            s.push_str(&format!("; statistics: {}", self.statistics.describe()));
+        }
         if self.flight {
             s.push_str(&format!(
                 "; gravity {} m/s², up to {} bounce(s), rotation in flight: {}",
