@@ -190,9 +190,15 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     for s in 0..BLOCK {
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
-        let vmag = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let wmag = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-        let vscale = vmag + c.length * wmag;
+        let v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        // The grazing test exists in f32 only (`graze` is 0 in f64): f64
+        // lanes skip its two square roots.
+        let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+        let vscale = if f32_lanes {
+            v2.sqrt() + c.length * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
+        } else {
+            T::ZERO
+        };
         let mut rho = [[T::ZERO; 3]; N];
         let mut status = 0u32;
         for i in 0..N {
@@ -221,7 +227,7 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
             }
             out.vn[i][s] = vn;
             status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
-            status |= bit(vn.abs() < c.graze * vscale, RECOMPUTE);
+            status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
         }
         if ROT {
             let mut g = [[T::ZERO; N]; N];
@@ -239,7 +245,7 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
         } else {
             status |= bit(!det_ok0, RECOMPUTE);
         }
-        out.t_before[s] = T::HALF * c.mass * vmag * vmag
+        out.t_before[s] = T::HALF * c.mass * v2
             + T::HALF
                 * (c.inertia[0] * w[0] * w[0]
                     + c.inertia[1] * w[1] * w[1]
