@@ -16,6 +16,8 @@
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+// fdlibm's coefficients are quoted with their published digits.
+#![allow(clippy::excessive_precision)]
 
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
