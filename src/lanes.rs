@@ -53,13 +53,19 @@ pub trait Real:
     fn abs(self) -> Self;
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
-    /// A uniform draw in the open interval (0, 1) from 64 random bits
-    /// (the top 23 bits for f32, so that k + ½ is exact, and the top 52 for f64).
+    /// A uniform draw in the open interval (0, 1) from 64 random bits:
+    /// `(k + ½)·2⁻ᵐ` for the top m bits k (m = 23 for f32, 52 for f64), so
+    /// the f32 draw is the f64 draw's top bits.
     fn uniform(bits: u64) -> Self;
     /// Natural logarithm for finite `x > 0`.
     fn ln(self) -> Self;
     /// `(sin 2πx, cos 2πx)` for any finite x.
     fn sin_cos_2pi(self) -> (Self, Self);
+    /// `sin_cos_2pi` for x in [0, 1] (uniform draws), with a cheaper
+    /// quadrant; the same results there.
+    fn sin_cos_2pi_unit(self) -> (Self, Self);
+    /// `(sin a, cos a)` for a = r·π/2, |r| ≤ ½.
+    fn sin_cos_quarter(r: Self) -> (Self, Self);
 }
 
 /// `if c { a } else { b }` as a value (a blend when vectorised).
@@ -138,7 +144,28 @@ macro_rules! real_impl {
                 // Quarter turns: t = 4x = q + r, |r| ≤ ½, angle r·π/2 ≤ π/4.
                 let t = self * 4.0;
                 let q = t.round_ties_even();
-                let r = t - q;
+                let (s, c) = Self::sin_cos_quarter(t - q);
+                // The quadrant q mod 4 in float arithmetic (exact: q is an
+                // integer), which vectorises where float → int casts do not.
+                let quadrant = q - 4.0 * (q * 0.25).floor();
+                let odd = (quadrant == 1.0) | (quadrant == 3.0);
+                let (s1, c1) = if odd { (c, -s) } else { (s, c) };
+                if quadrant >= 2.0 { (-s1, -c1) } else { (s1, c1) }
+            }
+            #[inline(always)]
+            fn sin_cos_2pi_unit(self) -> (Self, Self) {
+                // As `sin_cos_2pi`, for x in [0, 1]: q is 0…4 and is its own
+                // quadrant (4 is 0), so no reduction of q is needed. Same
+                // results bit for bit.
+                let t = self * 4.0;
+                let q = t.round_ties_even();
+                let (s, c) = Self::sin_cos_quarter(t - q);
+                let odd = (q == 1.0) | (q == 3.0);
+                let (s1, c1) = if odd { (c, -s) } else { (s, c) };
+                if (q == 2.0) | (q == 3.0) { (-s1, -c1) } else { (s1, c1) }
+            }
+            #[inline(always)]
+            fn sin_cos_quarter(r: Self) -> (Self, Self) {
                 let a = r * core::f64::consts::FRAC_PI_2 as $t;
                 let a2 = a * a;
                 let mut sp: $t = 0.0;
@@ -149,37 +176,32 @@ macro_rules! real_impl {
                 for c in [$($cc),*].iter().rev() {
                     cp = cp * a2 + (*c as $t);
                 }
-                let s = a * sp;
-                let c = cp;
-                // The quadrant q mod 4 in float arithmetic (exact: q is an
-                // integer), which vectorises where float → int casts do not.
-                let quadrant = q - 4.0 * (q * 0.25).floor();
-                let odd = (quadrant == 1.0) | (quadrant == 3.0);
-                let (s1, c1) = if odd { (c, -s) } else { (s, c) };
-                if quadrant >= 2.0 { (-s1, -c1) } else { (s1, c1) }
+                (a * sp, cp)
             }
         }
     };
 }
 
-// f32: the Taylor series (few terms suffice). atanh series 1 + s²/3 + s⁴/5 + … ; |s| ≤ 0.1716.
-// sin a = a(1 − a²/6 + …), cos a = 1 − a²/2 + …, |a| ≤ π/4.
+// f32: atanh series 1 + s²/3 + s⁴/5 + … for ln (|s| ≤ 0.1716), and the
+// Cephes single-precision minimax fits of sinf and cosf on |a| ≤ π/4
+// (S. L. Moshier; 4 and 5 terms instead of 5 and 6 Taylor terms).
 real_impl!(
     f32,
     u32,
     23,
     127,
     "f32",
-    |bits| ((bits >> 41) as u32 as f32 + 0.5) * (1.0 / 8_388_608.0),
+    // (k + ½)·2⁻²³ for the top 23 bits k, as (1 + k·2⁻²³) − (1 − 2⁻²⁴):
+    // both exact (Sterbenz), with no integer → float conversion.
+    |bits| f32::from_bits(0x3f80_0000 | (bits >> 41) as u32) - (1.0 - 1.0 / 16_777_216.0),
     ln_coeffs = [1.0, 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0, 1.0 / 9.0],
-    sin_coeffs = [1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0],
+    sin_coeffs = [1.0, -1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4],
     cos_coeffs = [
         1.0,
-        -1.0 / 2.0,
-        1.0 / 24.0,
-        -1.0 / 720.0,
-        1.0 / 40320.0,
-        -1.0 / 3628800.0
+        -0.5,
+        4.166664568298827e-2,
+        -1.388731625493765e-3,
+        2.443315711809948e-5
     ]
 );
 // f64: the minimax fits of fdlibm (Sun Microsystems, freely
@@ -193,7 +215,9 @@ real_impl!(
     52,
     1023,
     "f64",
-    |bits| ((bits >> 12) as i64 as f64 + 0.5) * (1.0 / 4_503_599_627_370_496.0),
+    // (k + ½)·2⁻⁵² for the top 52 bits k, as (1 + k·2⁻⁵²) − (1 − 2⁻⁵³).
+    |bits| f64::from_bits(0x3ff0_0000_0000_0000 | (bits >> 12))
+        - (1.0 - 1.0 / 9_007_199_254_740_992.0),
     ln_coeffs = [
         1.0,
         6.666666666666735130e-01 / 2.0,
@@ -393,6 +417,28 @@ mod tests {
             worst32 < 4.0 * f32::EPSILON as f64,
             "f32 sin/cos error {worst32:e}"
         );
+    }
+
+    #[test]
+    fn unit_sin_cos_is_the_general_one_on_the_unit_interval() {
+        for i in 0..=100_000 {
+            let x = i as f64 / 100_000.0;
+            assert_eq!(Real::sin_cos_2pi_unit(x), Real::sin_cos_2pi(x), "{x}");
+            let x = x as f32;
+            assert_eq!(Real::sin_cos_2pi_unit(x), Real::sin_cos_2pi(x), "{x}");
+        }
+    }
+
+    #[test]
+    fn uniforms_are_k_plus_half_ulp() {
+        let rng = CounterRng::new(7, 9);
+        for i in 0..100_000u64 {
+            let b = rng.bits(i, (i % 9) as u32);
+            let want32 = ((b >> 41) as f64 + 0.5) / 8_388_608.0;
+            let want64 = ((b >> 12) as f64 + 0.5) / 4_503_599_627_370_496.0;
+            assert_eq!(<f32 as Real>::uniform(b) as f64, want32);
+            assert_eq!(<f64 as Real>::uniform(b), want64);
+        }
     }
 
     #[test]

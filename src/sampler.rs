@@ -60,7 +60,7 @@ pub struct Sampler {
 #[inline(always)]
 fn box_muller<T: Real>(u1: T, u2: T) -> (T, T) {
     let r = (T::from_f64(-2.0) * u1.ln()).sqrt();
-    let (s, c) = u2.sin_cos_2pi();
+    let (s, c) = u2.sin_cos_2pi_unit();
     (r * c, r * s)
 }
 
@@ -70,8 +70,8 @@ fn box_muller<T: Real>(u1: T, u2: T) -> (T, T) {
 fn haar_matrix<T: Real>(u1: T, u2: T, u3: T) -> [T; 9] {
     let r1 = (T::ONE - u1).sqrt();
     let r2 = u1.sqrt();
-    let (s1, c1) = u2.sin_cos_2pi();
-    let (s2, c2) = u3.sin_cos_2pi();
+    let (s1, c1) = u2.sin_cos_2pi_unit();
+    let (s2, c2) = u3.sin_cos_2pi_unit();
     quaternion_matrix(r2 * c2, r1 * s1, r1 * c1, r2 * s2)
 }
 
