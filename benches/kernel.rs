@@ -8,9 +8,9 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use impactmc::engine::{run, Keep, RunOptions};
+use impactmc::engine::{run, sample_block, Keep, RunOptions};
 use impactmc::physics::{solve_impact, Law, Pose, State};
-use impactmc::sampler::Sampler;
+use impactmc::sampler::{Inputs, Sampler, BLOCK};
 use impactmc::scene::{load_scene, Overrides, Scene};
 
 const SAMPLES: u64 = 1 << 18;
@@ -89,6 +89,38 @@ fn effects(c: &mut Criterion) {
     g.finish();
 }
 
+/// The draws alone (orientation, v, ω of S1), per precision.
+/// `cargo bench --bench kernel -- sampler`.
+fn sampler(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sampler");
+    let blocks = 1024u64;
+    g.throughput(Throughput::Elements(blocks * BLOCK as u64));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(300));
+    let s = scene("floor", "newton", "f32");
+    let sm = Sampler::new(&s);
+    let mut x32 = Inputs::<f32>::new();
+    let mut x64 = Inputs::<f64>::new();
+    g.bench_function(BenchmarkId::new("floor", "f32"), |b| {
+        b.iter(|| {
+            for k in 0..blocks {
+                sample_block(&sm, k * BLOCK as u64, &mut x32);
+            }
+            x32.v[0][7]
+        })
+    });
+    g.bench_function(BenchmarkId::new("floor", "f64"), |b| {
+        b.iter(|| {
+            for k in 0..blocks {
+                sample_block(&sm, k * BLOCK as u64, &mut x64);
+            }
+            x64.v[0][7]
+        })
+    });
+    g.finish();
+}
+
 /// The scalar f64 reference, one sample at a time: the baseline the SoA
 /// kernel is measured against.
 fn reference(c: &mut Criterion) {
@@ -131,5 +163,5 @@ fn reference(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, kernel, effects, reference);
+criterion_group!(benches, kernel, effects, sampler, reference);
 criterion_main!(benches);

@@ -699,6 +699,16 @@ pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     post::<T, N, ROT>(consts, inputs, geo, out);
 }
 
+/// The sampler alone on one block, with the same run-time dispatch as a
+/// run. For benchmarks of the draws.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+))]
+pub fn sample_block<T: Real>(sampler: &Sampler, first: u64, inputs: &mut Inputs<T>) {
+    sampler.fill(first, inputs);
+}
+
 /// One block: the lane passes, then the reference for flagged lanes, then the
 /// accumulators (scalar).
 /// What every block of a run shares.
