@@ -266,24 +266,25 @@ const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CounterRng {
     key: u64,
-    draws_per_sample: u64,
+    /// `draws_per_sample · γ`: the counter advance of one sample.
+    stride: u64,
 }
 
 impl CounterRng {
     pub fn new(seed: u64, draws_per_sample: u32) -> Self {
         Self {
             key: mix64(seed ^ 0x6a09_e667_f3bc_c909),
-            draws_per_sample: draws_per_sample as u64,
+            stride: (draws_per_sample as u64).wrapping_mul(GOLDEN_GAMMA),
         }
     }
 
-    /// 64 random bits for draw `j` of sample `i`.
+    /// 64 random bits for draw `j` of sample `i`: SplitMix64 of
+    /// `key + (i·draws + j)·γ`, written as `(key + i·stride) + j·γ` (the same
+    /// value mod 2⁶⁴) so that one multiply per sample serves all its draws.
     #[inline(always)]
     pub fn bits(&self, sample: u64, j: u32) -> u64 {
-        let position = sample
-            .wrapping_mul(self.draws_per_sample)
-            .wrapping_add(j as u64);
-        mix64(self.key.wrapping_add(position.wrapping_mul(GOLDEN_GAMMA)))
+        let base = self.key.wrapping_add(sample.wrapping_mul(self.stride));
+        mix64(base.wrapping_add((j as u64).wrapping_mul(GOLDEN_GAMMA)))
     }
 }
 
