@@ -792,7 +792,7 @@ fn scatter<T: Real>(
     let mut negative = false;
     let mut inc = [0u32; BLOCK];
     for s in 0..BLOCK {
-        bins[s] = LogHistogram::bin(xs[s].to_f64());
+        bins[s] = LogHistogram::bin_of(xs[s]);
         inc[s] = ((w[s] > T::ZERO) & (xs[s] > T::ZERO)) as u32;
         zeros += ((w[s] > T::ZERO) & (xs[s] == T::ZERO)) as u32;
         negative |= (w[s] > T::ZERO) & (xs[s] < T::ZERO);
@@ -1014,7 +1014,7 @@ fn block_stats_by_set<T: Real, const N: usize>(
         let mut other = false;
         let mut negative = false;
         for s in 0..BLOCK {
-            bins[s] = LogHistogram::bin(xs[s].to_f64());
+            bins[s] = LogHistogram::bin_of(xs[s]);
             other |= (d.impacting[s] > T::ZERO) & !(xs[s] > T::ZERO);
             negative |= (d.impacting[s] > T::ZERO) & (xs[s] < T::ZERO);
         }

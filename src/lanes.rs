@@ -66,6 +66,11 @@ pub trait Real:
     fn sin_cos_2pi_unit(self) -> (Self, Self);
     /// `(sin a, cos a)` for a = r·π/2, |r| ≤ ½.
     fn sin_cos_quarter(r: Self) -> (Self, Self);
+    /// Index of |x| in a log-linear histogram with 2^`sub_bits` bins per
+    /// octave from 2^`min_exp`, clamped to `[0, bins)`, from the value's own
+    /// bits (so f32 lanes stay 16 wide). Every finite value of the type gets
+    /// the bin its f64 conversion would.
+    fn log_bin(self, sub_bits: u32, min_exp: i32, bins: i32) -> u16;
 }
 
 /// `if c { a } else { b }` as a value (a blend when vectorised).
@@ -163,6 +168,13 @@ macro_rules! real_impl {
                 let odd = (q == 1.0) | (q == 3.0);
                 let (s1, c1) = if odd { (c, -s) } else { (s, c) };
                 if (q == 2.0) | (q == 3.0) { (-s1, -c1) } else { (s1, c1) }
+            }
+            #[inline(always)]
+            fn log_bin(self, sub_bits: u32, min_exp: i32, bins: i32) -> u16 {
+                let bits = self.abs().to_bits();
+                let exp = ((bits >> $mant) as i32 & (2 * $bias + 1)) - $bias;
+                let sub = ((bits >> ($mant - sub_bits)) as i32) & ((1 << sub_bits) - 1);
+                ((exp - min_exp) * (1 << sub_bits) + sub).clamp(0, bins - 1) as u16
             }
             #[inline(always)]
             fn sin_cos_quarter(r: Self) -> (Self, Self) {

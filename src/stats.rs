@@ -293,7 +293,7 @@ impl LogHistogram {
         let mut negative = false;
         let mut zeros = 0u64;
         for k in 0..B {
-            idx[k] = bin_of(xs[k].to_f64().abs()) as u16;
+            idx[k] = Self::bin_of(xs[k]);
             negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
             zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u64;
         }
@@ -348,10 +348,16 @@ impl LogHistogram {
         self.zero += n;
     }
 
-    /// Bin index of a positive value, below [`BINS`].
+    /// Bin index of |x|, below [`BINS`].
     #[inline(always)]
     pub fn bin(x: f64) -> u16 {
         bin_of(x.abs()) as u16
+    }
+
+    /// [`Self::bin`] computed in the value's own precision (the same bin).
+    #[inline(always)]
+    pub fn bin_of<T: Real>(x: T) -> u16 {
+        x.log_bin(SUB_BITS, MIN_EXP, BINS as i32)
     }
 
     #[inline]
@@ -510,6 +516,22 @@ impl Stat {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bins_in_own_precision_match_the_f64_bins() {
+        let mut x = 1e-12f64;
+        while x < 1e12 {
+            for v in [x, -x, x * 1.0001] {
+                assert_eq!(LogHistogram::bin_of(v), LogHistogram::bin(v), "{v}");
+                let f = v as f32;
+                assert_eq!(LogHistogram::bin_of(f), LogHistogram::bin(f as f64), "{f}");
+            }
+            x *= 1.0137;
+        }
+        for f in [f32::MIN_POSITIVE, f32::MAX, 1e-45f32, 0.0, 1.0, 2.0] {
+            assert_eq!(LogHistogram::bin_of(f), LogHistogram::bin(f as f64), "{f}");
+        }
+    }
 
     #[test]
     fn moments_match_two_pass_and_merge_in_any_batching() {
