@@ -777,42 +777,6 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
     }
 }
 
-/// Adds the lanes of `xs` with weight 1 in `w` to one histogram: bin
-/// indices in a vectorised pass, then a branch-free scatter (every lane adds
-/// its weight, 0 or 1). Exact zeros are counted in the vector pass;
-/// negatives (rare: a rebound ratio) one by one.
-#[inline(always)]
-fn scatter<T: Real>(
-    h: &mut LogHistogram,
-    xs: &[T; BLOCK],
-    w: &[T; BLOCK],
-    bins: &mut [u16; BLOCK],
-) {
-    let mut zeros = 0u32;
-    let mut negative = false;
-    let mut inc = [0u32; BLOCK];
-    for s in 0..BLOCK {
-        bins[s] = LogHistogram::bin_of(xs[s]);
-        inc[s] = ((w[s] > T::ZERO) & (xs[s] > T::ZERO)) as u32;
-        zeros += ((w[s] > T::ZERO) & (xs[s] == T::ZERO)) as u32;
-        negative |= (w[s] > T::ZERO) & (xs[s] < T::ZERO);
-    }
-    // The scatter itself: a load, an add and a store per lane, with the
-    // weights computed above in the vector pass.
-    let t = h.positive_bins();
-    for s in 0..BLOCK {
-        t[bins[s] as usize & (BINS - 1)] += inc[s] as u64;
-    }
-    h.add_zeros(zeros as u64);
-    if negative {
-        for s in 0..BLOCK {
-            if w[s] > T::ZERO && xs[s] < T::ZERO {
-                h.push(xs[s].to_f64());
-            }
-        }
-    }
-}
-
 /// Accumulates every law's block results: counters, then moments and
 /// histograms as masked vector passes, for the statistics the plan asks
 /// for. Compiled like `block_lanes`.
@@ -909,26 +873,21 @@ fn block_stats<T: Real, const N: usize>(
         } else {
             // Histograms straight into the "all" statistics.
             if plan.quantiles[0] {
-                scatter(&mut la.energy_ratio.hist, &d.ratio, &d.impacting, &mut bins);
+                la.energy_ratio.hist.push_weighted(&d.ratio, &d.impacting);
             }
             if plan.quantiles[1] {
                 match spin {
                     Some(w) => la.omega_after_norm.hist.push_repeated(w, impacts as u64),
-                    None => scatter(
-                        &mut la.omega_after_norm.hist,
-                        &d.omega,
-                        &d.impacting,
-                        &mut bins,
-                    ),
+                    None => la
+                        .omega_after_norm
+                        .hist
+                        .push_weighted(&d.omega, &d.impacting),
                 }
             }
             if plan.quantiles[2] {
-                scatter(
-                    &mut la.velocity_after_norm.hist,
-                    &d.speed,
-                    &d.impacting,
-                    &mut bins,
-                );
+                la.velocity_after_norm
+                    .hist
+                    .push_weighted(&d.speed, &d.impacting);
             }
         }
         if li == 0 {

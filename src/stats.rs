@@ -290,20 +290,24 @@ impl LogHistogram {
             return;
         }
         let mut idx = [0u16; B];
+        let mut inc = [0u32; B];
         let mut negative = false;
-        let mut zeros = 0u64;
+        let mut zeros = 0u32;
         for k in 0..B {
             idx[k] = Self::bin_of(xs[k]);
+            inc[k] = ((w[k] > T::ZERO) & (xs[k] > T::ZERO)) as u32;
             negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
-            zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u64;
+            zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u32;
         }
+        // The scatter itself: a load, an add and a store per lane, with the
+        // weights computed above in the vector pass.
         let pos = self.positive_bins();
         for k in 0..B {
-            pos[idx[k] as usize & (BINS - 1)] += ((w[k] > T::ZERO) & (xs[k] > T::ZERO)) as u64;
+            pos[idx[k] as usize & (BINS - 1)] += inc[k] as u64;
         }
         // Exact zeros (a sphere's |ω⁺| = 0, an inactive plane's impulse)
         // are counted in the vector pass; negatives are rare.
-        self.zero += zeros;
+        self.zero += zeros as u64;
         if negative {
             for k in 0..B {
                 if w[k] > T::ZERO && xs[k] < T::ZERO {

@@ -10,7 +10,7 @@ use impactmc::engine::{
     evaluate_samples, evaluate_samples_with, run, Keep, KernelVariant, RunOptions,
 };
 use impactmc::physics::Law;
-use impactmc::sampler::Sampler;
+use impactmc::sampler::{Inputs, Sampler};
 use impactmc::scene::{load_scene, Overrides, Scene};
 use impactmc::summary::Summary;
 
@@ -160,11 +160,10 @@ fn specialised_kernels_match_the_all_effects_kernel_per_sample() {
     }
 }
 
-/// A sphere's kernel skips the orientation draws, and a vector drawn alone
-/// takes only its own Box–Muller pairs: the inputs must still be the
-/// reference sampler's.
+/// A vector drawn alone takes only its own Box–Muller pairs: the inputs
+/// must still be the reference sampler's.
 #[test]
-fn skipped_draws_shift_no_other_draw() {
+fn vectors_drawn_alone_match_the_reference_sampler() {
     for (name, s, _) in scenes("f64") {
         let sampler = Sampler::new(&s);
         for got in evaluate_samples(&s, Law::Newton, 77, 300) {
@@ -174,6 +173,28 @@ fn skipped_draws_shift_no_other_draw() {
                 assert!((got.omega[k] - w[k]).abs() < 1e-13, "{name}");
             }
         }
+    }
+}
+
+/// The run path of a sphere skips the orientation draws: that leaves the
+/// identity and does not shift the velocity draws.
+#[test]
+fn skipping_orientations_shifts_no_other_draw() {
+    let s = shipped("corner3", "f32", 1000);
+    let full = Sampler::new(&s);
+    let skip = full.with_orientation(false);
+    let (mut a, mut b) = (Inputs::<f32>::new(), Inputs::<f32>::new());
+    full.fill(4096, &mut a);
+    skip.fill(4096, &mut b);
+    assert_eq!(a.v, b.v);
+    assert_eq!(a.w, b.w);
+    assert_ne!(a.a, b.a, "the full sampler draws orientations");
+    for (k, row) in b.a.iter().enumerate() {
+        let want = if k % 4 == 0 { 1.0 } else { 0.0 };
+        assert!(
+            row.iter().all(|&x| x == want),
+            "entry {k} is not the identity's"
+        );
     }
 }
 

@@ -315,8 +315,8 @@ fn slurm_array_script_run_by_a_loop_then_merged() {
     // The scene's own sample count (10^7) is too many for a test: pass it
     // through EXTRA_ARGS like a user would.
     let extra = format!("--samples {SAMPLES} --law newton --law paper");
-    for i in 0..4 {
-        let out = Command::new("bash")
+    let task = |i: usize| {
+        Command::new("bash")
             .arg(repo("deploy/slurm/impactmc-shard.sbatch"))
             .env("SLURM_ARRAY_TASK_ID", i.to_string())
             .env("SHARDS", "4")
@@ -325,21 +325,13 @@ fn slurm_array_script_run_by_a_loop_then_merged() {
             .env("IMPACTMC", env!("CARGO_BIN_EXE_impactmc"))
             .env("EXTRA_ARGS", &extra)
             .output()
-            .unwrap();
-        ok(out);
+            .unwrap()
+    };
+    for i in 0..4 {
+        ok(task(i));
     }
     // A failed task re-run: same index, same output (it overwrites).
-    let again = Command::new("bash")
-        .arg(repo("deploy/slurm/impactmc-shard.sbatch"))
-        .env("SLURM_ARRAY_TASK_ID", "1")
-        .env("SHARDS", "4")
-        .env("SCENE", &scene)
-        .env("OUT", d.join("shards"))
-        .env("IMPACTMC", env!("CARGO_BIN_EXE_impactmc"))
-        .env("EXTRA_ARGS", &extra)
-        .output()
-        .unwrap();
-    ok(again);
+    ok(task(1));
     let merged = ok(Command::new("bash")
         .arg(repo("deploy/slurm/impactmc-merge.sbatch"))
         .env("OUT", d.join("shards"))
