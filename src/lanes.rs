@@ -57,6 +57,12 @@ pub trait Real:
     /// `(k + ½)·2⁻ᵐ` for the top m bits k (m = 23 for f32, 52 for f64), so
     /// the f32 draw is the f64 draw's top bits.
     fn uniform(bits: u64) -> Self;
+    /// A uniform draw in (0, 1) from a 32-bit word `hi` and, in f64 only, 20
+    /// more bits `lo` (the low 20 bits of the argument): `(k + ½)·2⁻ᵐ` for
+    /// k the top 23 bits of `hi` in f32, and `hi·2²⁰ + lo` in f64. The f32
+    /// draw is the f64 draw's top bits, and f32 never reads `lo` (so an f32
+    /// caller's `lo` is dead code).
+    fn uniform_split(hi: u32, lo: u64) -> Self;
     /// Natural logarithm for finite `x > 0`.
     fn ln(self) -> Self;
     /// `(sin 2πx, cos 2πx)` for any finite x.
@@ -84,7 +90,7 @@ pub fn select<T: Real>(c: bool, a: T, b: T) -> T {
 }
 
 macro_rules! real_impl {
-    ($t:ty, $bits:ty, $mant:expr, $bias:expr, $name:expr, $uniform:expr,
+    ($t:ty, $bits:ty, $mant:expr, $bias:expr, $name:expr, $uniform:expr, $split:expr,
      ln_coeffs = [$($lc:expr),*], sin_coeffs = [$($sc:expr),*], cos_coeffs = [$($cc:expr),*]) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
@@ -123,6 +129,11 @@ macro_rules! real_impl {
             fn uniform(bits: u64) -> Self {
                 let f: fn(u64) -> $t = $uniform;
                 f(bits)
+            }
+            #[inline(always)]
+            fn uniform_split(hi: u32, lo: u64) -> Self {
+                let f: fn(u32, u64) -> $t = $split;
+                f(hi, lo)
             }
             #[inline(always)]
             fn ln(self) -> Self {
@@ -206,6 +217,7 @@ real_impl!(
     // (k + ½)·2⁻²³ for the top 23 bits k, as (1 + k·2⁻²³) − (1 − 2⁻²⁴):
     // both exact (Sterbenz), with no integer → float conversion.
     |bits| f32::from_bits(0x3f80_0000 | (bits >> 41) as u32) - (1.0 - 1.0 / 16_777_216.0),
+    |hi, _lo| f32::from_bits(0x3f80_0000 | (hi >> 9)) - (1.0 - 1.0 / 16_777_216.0),
     ln_coeffs = [1.0, 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0, 1.0 / 9.0],
     sin_coeffs = [1.0, -1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4],
     cos_coeffs = [
@@ -229,6 +241,8 @@ real_impl!(
     "f64",
     // (k + ½)·2⁻⁵² for the top 52 bits k, as (1 + k·2⁻⁵²) − (1 − 2⁻⁵³).
     |bits| f64::from_bits(0x3ff0_0000_0000_0000 | (bits >> 12))
+        - (1.0 - 1.0 / 9_007_199_254_740_992.0),
+    |hi, lo| f64::from_bits(0x3ff0_0000_0000_0000 | ((hi as u64) << 20) | (lo & 0xf_ffff))
         - (1.0 - 1.0 / 9_007_199_254_740_992.0),
     ln_coeffs = [
         1.0,
@@ -271,28 +285,28 @@ pub fn mix64(mut z: u64) -> u64 {
 
 const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
 
-/// A counter-based generator: draw `j` of sample `i` is a pure function of
-/// (seed, i, j), namely SplitMix64 at position `i·draws + j` of the stream
+/// A counter-based generator: word `j` of sample `i` is a pure function of
+/// (seed, i, j), namely SplitMix64 at position `i·words + j` of the stream
 /// keyed by the seed. Any sample can be drawn in any order, on any thread,
 /// in any lane, with the same result.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CounterRng {
     key: u64,
-    /// `draws_per_sample · γ`: the counter advance of one sample.
+    /// `words_per_sample · γ`: the counter advance of one sample.
     stride: u64,
 }
 
 impl CounterRng {
-    pub fn new(seed: u64, draws_per_sample: u32) -> Self {
+    pub fn new(seed: u64, words_per_sample: u32) -> Self {
         Self {
             key: mix64(seed ^ 0x6a09_e667_f3bc_c909),
-            stride: (draws_per_sample as u64).wrapping_mul(GOLDEN_GAMMA),
+            stride: (words_per_sample as u64).wrapping_mul(GOLDEN_GAMMA),
         }
     }
 
-    /// 64 random bits for draw `j` of sample `i`: SplitMix64 of
-    /// `key + (i·draws + j)·γ`, written as `(key + i·stride) + j·γ` (the same
-    /// value mod 2⁶⁴) so that one multiply per sample serves all its draws.
+    /// 64 random bits, word `j` of sample `i`: SplitMix64 of
+    /// `key + (i·words + j)·γ`, written as `(key + i·stride) + j·γ` (the same
+    /// value mod 2⁶⁴) so that one multiply per sample serves all its words.
     #[inline(always)]
     pub fn bits(&self, sample: u64, j: u32) -> u64 {
         let base = self.key.wrapping_add(sample.wrapping_mul(self.stride));

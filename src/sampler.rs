@@ -7,6 +7,14 @@
 //! components (Box–Muller pairs (3,4), (5,6), (7,8) give v = (z0, z1, z2) and
 //! ω = (z3, z4, z5) for normal distributions; uniform distributions use 3–5
 //! for v and 6–8 for ω).
+//!
+//! Bits per draw: a sample has [`WORDS`] 64-bit words of the counter-based
+//! generator. Draw j's top 32 bits are half j mod 2 (high half first) of
+//! word ⌊j/2⌋, words 0–4; f32 draws use nothing else (the top 23 of those
+//! bits), so an f32 sample hashes 5 words, not 9. f64 draws add 20 low
+//! bits: bits 20·(j mod 3) … of word 5 + ⌊j/3⌋, so an f64 sample hashes 8.
+//! The f32 draw is the f64 draw's top bits, so the two precisions draw the
+//! same samples (the accuracy ladder's f32-against-f64 rung relies on it).
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
@@ -20,8 +28,11 @@ use crate::scene::{OrientationDist, Scene, VectorDist};
 /// Samples per SoA block: the kernel's unit of vectorised work.
 pub const BLOCK: usize = 256;
 
-/// Random words per sample.
-pub const DRAWS: u32 = 9;
+/// Random 64-bit words per sample (see the module notes).
+pub const WORDS: u32 = 8;
+
+/// Word holding the 20 low bits of f64 draw `j`, and their shift.
+const LOW_WORD: u32 = 5;
 
 /// One block of drawn inputs, structure of arrays.
 #[derive(Clone)]
@@ -117,7 +128,7 @@ fn bryan_matrix<T: Real>(psi: T, theta: T, phi: T) -> [T; 9] {
 impl Sampler {
     pub fn new(scene: &Scene) -> Self {
         Self {
-            rng: CounterRng::new(scene.seed(), DRAWS),
+            rng: CounterRng::new(scene.seed(), WORDS),
             orientation_needed: true,
             orientation: scene.orientation(),
             velocity: scene.velocity(),
@@ -131,9 +142,19 @@ impl Sampler {
         self
     }
 
+    /// Uniform draw `j` of sample `sample` (j is a constant in every
+    /// caller, so the half and word choices fold away, and the words shared
+    /// by two draws are hashed once).
     #[inline(always)]
     fn u<T: Real>(&self, sample: u64, j: u32) -> T {
-        T::uniform(self.rng.bits(sample, j))
+        let w = self.rng.bits(sample, j / 2);
+        let hi = if j % 2 == 0 {
+            (w >> 32) as u32
+        } else {
+            w as u32
+        };
+        let lo = self.rng.bits(sample, LOW_WORD + j / 3) >> (20 * (j % 3));
+        T::uniform_split(hi, lo)
     }
 
     /// Fills a block with samples `first .. first + BLOCK`. Each distribution
@@ -259,7 +280,17 @@ impl Sampler {
     /// The same draws for one sample in f64 with `std`'s ln, sin and cos:
     /// the reference the lane sampler is tested against.
     pub fn reference(&self, i: u64) -> (DMat3, DVec3, DVec3) {
-        let u = |j: u32| -> f64 { f64::uniform(self.rng.bits(i, j)) };
+        // Bits as the module notes say, written out independently of `u`.
+        let u = |j: u32| -> f64 {
+            let word = self.rng.bits(i, j / 2);
+            let top32 = if j % 2 == 0 {
+                word >> 32
+            } else {
+                word & 0xffff_ffff
+            };
+            let low20 = (self.rng.bits(i, 5 + j / 3) >> (20 * (j % 3))) & 0xf_ffff;
+            ((top32 << 20 | low20) as f64 + 0.5) / 4_503_599_627_370_496.0
+        };
         let tau = std::f64::consts::TAU;
         let a = match self.orientation {
             OrientationDist::Uniform => {
@@ -307,4 +338,82 @@ impl Sampler {
         };
         (a, vec(self.velocity, 0), vec(self.angular_velocity, 1))
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sampler(seed: u64) -> Sampler {
+        Sampler {
+            rng: CounterRng::new(seed, WORDS),
+            orientation_needed: true,
+            orientation: OrientationDist::Uniform,
+            velocity: VectorDist::Fixed(DVec3::ZERO),
+            angular_velocity: VectorDist::Fixed(DVec3::ZERO),
+        }
+    }
+
+    /// Value stability of the draws: the 52-bit integers k of the f64
+    /// uniforms (k + ½)·2⁻⁵², computed once from the module notes' word
+    /// layout by an independent Python implementation of SplitMix64.
+    /// Changing them changes every seeded result: a deliberate decision and
+    /// a version bump.
+    #[test]
+    fn draws_are_frozen() {
+        let s = sampler(42);
+        let want: [(u64, [u64; 9]); 2] = [
+            (
+                0,
+                [
+                    2029098098584163,
+                    1201813910028967,
+                    2473972865410187,
+                    3352543597182741,
+                    4066727417352526,
+                    583196261555283,
+                    4140893753844133,
+                    56444775705590,
+                    4415853579443453,
+                ],
+            ),
+            (
+                1_000_000_007,
+                [
+                    146971034081284,
+                    261147499335548,
+                    3839864956428190,
+                    1801187253391987,
+                    834816944512625,
+                    1545269381926959,
+                    4503127835676428,
+                    4095400509254592,
+                    572114929692372,
+                ],
+            ),
+        ];
+        for (i, ks) in want {
+            for (j, k) in ks.into_iter().enumerate() {
+                let u = (k as f64 + 0.5) / 4_503_599_627_370_496.0;
+                assert_eq!(s.u::<f64>(i, j as u32), u, "sample {i} draw {j}");
+                // The f32 draw is the f64 draw's top 23 bits.
+                let u32_ = ((k >> 29) as f64 + 0.5) / 8_388_608.0;
+                assert_eq!(s.u::<f32>(i, j as u32) as f64, u32_, "sample {i} draw {j}");
+            }
+        }
+    }
+
+    /// Every draw of a sample uses bits no other draw of it uses.
+    #[test]
+    fn draws_of_a_sample_are_distinct() {
+        let s = sampler(7);
+        for i in 0..1000u64 {
+            let mut us: Vec<f64> = (0..DRAWS_PER_SAMPLE).map(|j| s.u::<f64>(i, j)).collect();
+            us.sort_by(f64::total_cmp);
+            us.dedup();
+            assert_eq!(us.len(), DRAWS_PER_SAMPLE as usize);
+        }
+    }
+
+    const DRAWS_PER_SAMPLE: u32 = 9;
 }

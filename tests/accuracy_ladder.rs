@@ -156,24 +156,46 @@ fn compliant_error_falls_as_the_step_shrinks() {
 
 #[test]
 fn f32_newton_stays_within_its_documented_bound_on_s3() {
+    // The documented bound (README "Precision") is on the same inputs: the
+    // f32 kernel against the f64 reference solving the f32 sample's own
+    // (rounded) draws. Against the f64 run, the ladder's f32 rung also
+    // carries the 23-bit quantisation of the draws, which Box–Muller
+    // magnifies when a uniform is near 1 (a few samples in 10⁴ move by
+    // ~10⁻⁴); that end-to-end difference is checked as the RMS the ladder
+    // reports.
     let s64 = scene("corner3", "f64");
     let s32 = scene("corner3", "f32");
+    let planes: Vec<Plane> = s64.planes().iter().map(|p| p.plane).collect();
+    let l = s64.body().length_scale();
     let a = evaluate_samples(&s64, Law::Newton, 0, 4096);
     let b = evaluate_samples(&s32, Law::Newton, 0, 4096);
+    let mut sum2 = 0.0;
     for (x, y) in a.iter().zip(&b) {
-        let (v, w) = (DVec3::from_array(x.velocity), DVec3::from_array(x.omega));
-        let dv = (DVec3::from_array(x.velocity_after) - DVec3::from_array(y.velocity_after))
-            .length()
-            + s64.body().length_scale()
-                * (DVec3::from_array(x.omega_after) - DVec3::from_array(y.omega_after)).length();
-        // README "Precision": 1e-5 of the velocity scale on well-conditioned
-        // scenes (S3's G is well conditioned).
+        let (pose, state) = sample_input(&s64, y);
+        let want = solve_impact(
+            s64.body(),
+            pose,
+            state,
+            &planes,
+            Law::Newton,
+            s64.tolerance(),
+        )
+        .unwrap();
+        let kernel = (want.after.velocity - DVec3::from_array(y.velocity_after)).length()
+            + l * (want.after.omega - DVec3::from_array(y.omega_after)).length();
         assert!(
-            dv <= 1e-5 * scale(&s64, v, w),
-            "sample {}: f32 off by {dv:e}",
-            x.index
+            kernel <= 1e-5 * scale(&s64, state.velocity, state.omega),
+            "sample {}: the f32 kernel is off by {kernel:e} on its own inputs",
+            y.index
         );
+        let (v, w) = (DVec3::from_array(x.velocity), DVec3::from_array(x.omega));
+        let run = (DVec3::from_array(x.velocity_after) - DVec3::from_array(y.velocity_after))
+            .length()
+            + l * (DVec3::from_array(x.omega_after) - DVec3::from_array(y.omega_after)).length();
+        sum2 += (run / scale(&s64, v, w)).powi(2);
     }
+    let rms = (sum2 / a.len() as f64).sqrt();
+    assert!(rms <= 1e-5, "f32 run against f64 run: RMS {rms:e}");
 }
 
 #[test]
