@@ -743,12 +743,17 @@ fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         &mut work.geo,
         &mut work.outs,
     );
-    check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    let extra_planes = scene.planes().len() > N;
+    if extra_planes {
+        check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    }
     for (li, law) in laws.iter().enumerate() {
         let out = &mut work.outs[li];
-        // Extra-plane checks landed in geo.status after the lane passes.
-        for s in 0..count {
-            out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+        if extra_planes {
+            // Extra-plane checks landed in geo.status after the lane passes.
+            for s in 0..count {
+                out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+            }
         }
         recompute(scene, *law, &work.inputs, out, count);
     }

@@ -381,6 +381,40 @@ impl<T: Real> X16<T> {
         }
         r
     }
+    /// Every lane in f64.
+    #[inline(always)]
+    pub fn to_f64(self) -> X16<f64> {
+        let mut r = X16([0.0; 16]);
+        for j in 0..16 {
+            r.0[j] = self.0[j].to_f64();
+        }
+        r
+    }
+    /// Sum of the lanes by halving (for exact sums: counts).
+    #[inline(always)]
+    pub fn tree_sum(self) -> T {
+        self.tree(|a, b| a + b)
+    }
+    #[inline(always)]
+    pub fn tree_min(self) -> T {
+        self.tree(|a, b| if b < a { b } else { a })
+    }
+    #[inline(always)]
+    pub fn tree_max(self) -> T {
+        self.tree(|a, b| if b > a { b } else { a })
+    }
+    #[inline(always)]
+    fn tree(self, f: impl Fn(T, T) -> T) -> T {
+        let mut x = self.0;
+        let mut half = 8;
+        while half > 0 {
+            for j in 0..half {
+                x[j] = f(x[j], x[j + half]);
+            }
+            half /= 2;
+        }
+        x[0]
+    }
     /// `a` in lanes where `w > 0`, else `b`.
     #[inline(always)]
     pub fn select_positive(w: Self, a: Self, b: Self) -> Self {

@@ -62,8 +62,11 @@ pub struct Moments {
     max: f64,
     pending_n: u64,
     shift: f64,
-    s1: f64,
-    s2: f64,
+    /// Pending shifted sums, per lane of the 16-lane block sums (folded in
+    /// lane order by `flush`): adding a block's sums is then one vector
+    /// addition, not a chain of sixteen.
+    s1: X16<f64>,
+    s2: X16<f64>,
 }
 
 impl Default for Moments {
@@ -76,8 +79,8 @@ impl Default for Moments {
             max: f64::NEG_INFINITY,
             pending_n: 0,
             shift: 0.0,
-            s1: 0.0,
-            s2: 0.0,
+            s1: X16::splat(0.0),
+            s2: X16::splat(0.0),
         }
     }
 }
@@ -90,8 +93,8 @@ impl Moments {
         }
         self.pending_n += 1;
         let d = x - self.shift;
-        self.s1 += d;
-        self.s2 += d * d;
+        self.s1.0[0] += d;
+        self.s2.0[0] += d * d;
         self.min = self.min.min(x);
         self.max = self.max.max(x);
     }
@@ -108,8 +111,8 @@ impl Moments {
         }
         self.pending_n += n;
         let d = x - self.shift;
-        self.s1 += n as f64 * d;
-        self.s2 += n as f64 * d * d;
+        self.s1.0[0] += n as f64 * d;
+        self.s2.0[0] += n as f64 * d * d;
         self.min = self.min.min(x);
         self.max = self.max.max(x);
     }
@@ -140,13 +143,13 @@ impl Moments {
                 hi.0[0] = hi.0[0].max(xs[k]);
             }
         }
-        for j in 0..16 {
-            self.pending_n += n.0[j].to_f64() as u64;
-            self.s1 += s1.0[j].to_f64();
-            self.s2 += s2.0[j].to_f64();
-            self.min = self.min.min(lo.0[j].to_f64());
-            self.max = self.max.max(hi.0[j].to_f64());
-        }
+        // Counts are exact small integers and extrema are order-free, so
+        // tree reductions; the sums stay per lane.
+        self.pending_n += n.tree_sum().to_f64() as u64;
+        self.s1 = self.s1 + s1.to_f64();
+        self.s2 = self.s2 + s2.to_f64();
+        self.min = self.min.min(lo.tree_min().to_f64());
+        self.max = self.max.max(hi.tree_max().to_f64());
     }
 
     /// Folds the pending batch sums into the merged moments.
@@ -155,12 +158,17 @@ impl Moments {
             return;
         }
         let nb = self.pending_n as f64;
-        let mean_b = self.shift + self.s1 / nb;
-        let m2_b = (self.s2 - self.s1 * self.s1 / nb).max(0.0);
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for j in 0..16 {
+            s1 += self.s1.0[j];
+            s2 += self.s2.0[j];
+        }
+        let mean_b = self.shift + s1 / nb;
+        let m2_b = (s2 - s1 * s1 / nb).max(0.0);
         self.combine(self.pending_n, mean_b, m2_b);
         self.pending_n = 0;
-        self.s1 = 0.0;
-        self.s2 = 0.0;
+        self.s1 = X16::splat(0.0);
+        self.s2 = X16::splat(0.0);
     }
 
     fn combine(&mut self, nb: u64, mean_b: f64, m2_b: f64) {
