@@ -113,7 +113,10 @@ impl<T: Real, const N: usize> Consts<T, N> {
     }
 }
 
-/// Contact geometry and pre-impact quantities of a block.
+/// Contact geometry and pre-impact quantities of a block. Cache-line
+/// aligned (as are [`LawOut`] and `sampler::Inputs`): every lane array then
+/// starts on a 64-byte line, so full-width loads never split lines.
+#[repr(C, align(64))]
 pub struct Geometry<T, const N: usize> {
     pub vn: [[T; BLOCK]; N],
     pub rho: [[[T; BLOCK]; 3]; N],
@@ -123,6 +126,7 @@ pub struct Geometry<T, const N: usize> {
 }
 
 /// Per-law results of a block.
+#[repr(C, align(64))]
 pub struct LawOut<T, const N: usize> {
     pub lambda: [[T; BLOCK]; N],
     pub vn_after: [[T; BLOCK]; N],

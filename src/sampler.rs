@@ -34,8 +34,9 @@ pub const WORDS: u32 = 8;
 /// Word holding the 20 low bits of f64 draw `j`, and their shift.
 const LOW_WORD: u32 = 5;
 
-/// One block of drawn inputs, structure of arrays.
+/// One block of drawn inputs, structure of arrays, cache-line aligned.
 #[derive(Clone)]
+#[repr(C, align(64))]
 pub struct Inputs<T> {
     /// Rotation body → world, row-major: `a[3r + c][s]` is `A_rc` of lane s.
     pub a: [[T; BLOCK]; 9],
