@@ -531,11 +531,7 @@ fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     geo: &mut Geometry<T, N>,
     outs: &mut [Box<LawOut<T, N>>],
 ) {
-    // A cache-line-aligned local makes the frame 64-byte aligned, so the
-    // kernel's register spills never straddle cache lines (without it the
-    // speed depended on the caller's stack depth, by up to 6 %).
-    let mut frame = crate::lanes::X16([0u32; 16]);
-    std::hint::black_box(&mut frame);
+    crate::lanes::align_frame();
     sampler.fill(first, inputs);
     geometry::<T, N, ROT>(consts, inputs, geo);
     for (law, out) in laws.iter().zip(outs.iter_mut()) {
@@ -700,6 +696,7 @@ pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     geo: &mut Geometry<T, N>,
     out: &mut LawOut<T, N>,
 ) {
+    crate::lanes::align_frame();
     geometry::<T, N, ROT>(consts, inputs, geo);
     impulses::<T, N, ROT, CPL>(consts, law, geo, out);
     post::<T, N, ROT>(consts, inputs, geo, out);
@@ -712,6 +709,7 @@ pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     "x86_64+avx2+fma",
 ))]
 pub fn sample_block<T: Real>(sampler: &Sampler, first: u64, inputs: &mut Inputs<T>) {
+    crate::lanes::align_frame();
     sampler.fill(first, inputs);
 }
 
