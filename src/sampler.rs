@@ -25,8 +25,12 @@ use glam::{DMat3, DQuat, DVec3};
 use crate::lanes::{CounterRng, Real};
 use crate::scene::{OrientationDist, Scene, VectorDist};
 
-/// Samples per SoA block: the kernel's unit of vectorised work.
-pub const BLOCK: usize = 256;
+/// Samples per SoA block: the kernel's unit of vectorised work (a multiple
+/// of 16). Chosen by measurement, end to end on Zen 4 (2026-11-24): 256
+/// made S3 f64 14 % slower (its blocks hold about 640 bytes per lane) and
+/// 128 made f32 about 3 % slower; 192 is within noise of the best for S1
+/// and S3 in both precisions.
+pub const BLOCK: usize = 192;
 
 /// Random 64-bit words per sample (see the module notes).
 pub const WORDS: u32 = 8;
