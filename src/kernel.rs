@@ -123,6 +123,7 @@ impl<T: Real, const N: usize> Consts<T, N> {
 pub struct Geometry<T, const N: usize> {
     pub vn: [[T; BLOCK]; N],
     pub rho: [[[T; BLOCK]; 3]; N],
+    /// G per lane: only the upper triangle (`g[i][j]`, i ≤ j) is written.
     pub g: [[[T; BLOCK]; N]; N],
     pub t_before: [T; BLOCK],
     pub status: [u32; BLOCK],
@@ -175,7 +176,8 @@ fn g_at<T: Real, const N: usize, const ROT: bool>(
     s: usize,
 ) -> T {
     if ROT {
-        geo.g[i][j][s]
+        // G is symmetric: only its upper triangle is stored.
+        geo.g[i.min(j)][i.max(j)][s]
     } else {
         c.g0[i][j]
     }
@@ -237,13 +239,16 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
             status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
         }
         if ROT {
+            // G is symmetric: the upper triangle is computed and stored,
+            // and mirrored here (`g_at` reads the stored half).
             let mut g = [[T::ZERO; N]; N];
             for i in 0..N {
-                for j in 0..N {
+                for j in i..N {
                     g[i][j] = c.nn[i][j] * c.inv_mass
                         + rho[i][0] * rho[j][0] * c.inv_inertia[0]
                         + rho[i][1] * rho[j][1] * c.inv_inertia[1]
                         + rho[i][2] * rho[j][2] * c.inv_inertia[2];
+                    g[j][i] = g[i][j];
                     out.g[i][j][s] = g[i][j];
                 }
             }
@@ -296,8 +301,10 @@ fn solve_subset<T: Real, const N: usize, const MASK: usize>(g: &[[T; N]; N], q: 
         2 => {
             let (i, j) = (idx[0], idx[1]);
             let det = g[i][i] * g[j][j] - g[i][j] * g[i][j];
-            lam[i] = (-q[i] * g[j][j] + q[j] * g[i][j]) / det;
-            lam[j] = (-q[j] * g[i][i] + q[i] * g[i][j]) / det;
+            // One division per pair (divisions are the slow lane op).
+            let inv = T::ONE / det;
+            lam[i] = (-q[i] * g[j][j] + q[j] * g[i][j]) * inv;
+            lam[j] = (-q[j] * g[i][i] + q[i] * g[i][j]) * inv;
         }
         _ => {
             // Cramer with the symmetric cofactors of the full 3×3.
