@@ -35,7 +35,8 @@ pub const BLOCK: usize = 192;
 /// Random 64-bit words per sample (see the module notes).
 pub const WORDS: u32 = 8;
 
-/// Word holding the 20 low bits of f64 draw `j`, and their shift.
+/// The first of the words that hold the f64 draws' 20 low bits (draw j's
+/// are bits 20·(j mod 3) … of word `LOW_WORD + ⌊j/3⌋`).
 const LOW_WORD: u32 = 5;
 
 /// One block of drawn inputs, structure of arrays, cache-line aligned.
