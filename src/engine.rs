@@ -1528,3 +1528,24 @@ pub fn evaluate_samples_with(
 ) -> Vec<SampleOutcome> {
     with_kernel!(scene, variant, evaluate_typed(scene, law, first, count))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parallel recursion starts from the nodes the batch-by-batch
+    /// tree stack ends with, for any batch range (so both build one tree).
+    #[test]
+    fn aligned_nodes_are_what_the_tree_stack_keeps() {
+        for start in 0..40u64 {
+            for end in start..start + 70 {
+                let mut stack = TreeStack::default();
+                for b in start..end {
+                    stack.push(b, RunAcc::new(1, 1));
+                }
+                let kept: Vec<Node> = stack.nodes.iter().map(|(n, _)| *n).collect();
+                assert_eq!(aligned_nodes(start..end), kept, "batches {start}..{end}");
+            }
+        }
+    }
+}

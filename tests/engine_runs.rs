@@ -274,3 +274,40 @@ fn planes_outside_the_placement_are_checked_per_sample() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Summary-only runs merge inside a parallel recursion; runs that also
+/// stream per-sample rows merge batch by batch in sample order. Both follow
+/// the one merge tree, so their statistics are bit-identical.
+#[test]
+fn summary_only_and_per_sample_runs_merge_alike() {
+    use impactmc::engine::{run_with_samples, SampleRows};
+    let s = scene(
+        "corner3",
+        Overrides {
+            samples: Some(2_000_003),
+            laws: Some(vec!["newton".into(), "paper".into()]),
+            ..Overrides::default()
+        },
+    );
+    let plain = summary(&s, 2);
+    let mut rows = 0usize;
+    let mut sink = |r: SampleRows| -> Result<(), String> {
+        rows += r.len();
+        Ok(())
+    };
+    let streamed = run_with_samples(
+        &s,
+        &RunOptions {
+            threads: 2,
+            progress: false,
+            ..Default::default()
+        },
+        Some(&mut sink),
+    )
+    .unwrap();
+    assert_eq!(rows, 2_000_003);
+    assert_eq!(
+        without_timing(&plain),
+        without_timing(&Summary::new(&s, &streamed))
+    );
+}
