@@ -160,9 +160,9 @@ fn f32_newton_stays_within_its_documented_bound_on_s3() {
     // f32 kernel against the f64 reference solving the f32 sample's own
     // (rounded) draws. Against the f64 run, the ladder's f32 rung also
     // carries the 23-bit quantisation of the draws, which Box–Muller
-    // magnifies when a uniform is near 1 (a few samples in 10⁴ move by
-    // ~10⁻⁴); that end-to-end difference is checked as the RMS the ladder
-    // reports.
+    // magnifies when a uniform is near 1 (one sample of these 4096 moves
+    // by 2.7e-4 m/s); that end-to-end difference is checked as the RMS the
+    // ladder reports.
     let s64 = scene("corner3", "f64");
     let s32 = scene("corner3", "f32");
     let planes: Vec<Plane> = s64.planes().iter().map(|p| p.plane).collect();
