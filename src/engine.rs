@@ -747,20 +747,7 @@ fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         &mut work.geo,
         &mut work.outs,
     );
-    let extra_planes = scene.planes().len() > N;
-    if extra_planes {
-        check_extra_planes(scene, &work.inputs, &mut work.geo, count);
-    }
-    for (li, law) in laws.iter().enumerate() {
-        let out = &mut work.outs[li];
-        if extra_planes {
-            // Extra-plane checks landed in geo.status after the lane passes.
-            for s in 0..count {
-                out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
-            }
-        }
-        recompute(scene, *law, &work.inputs, out, count);
-    }
+    fallback(scene, laws, work, count);
     block_stats(
         &work.geo,
         &work.outs,
@@ -773,6 +760,30 @@ fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     );
     if let Some(rows) = rows {
         push_rows(work, first, count, rows);
+    }
+}
+
+/// The scalar part after the lane passes, for every law of a block: planes
+/// outside the placement are checked (only in scenes that have them), and
+/// flagged lanes are solved again by the f64 reference.
+fn fallback<T: Real, const N: usize>(
+    scene: &Scene,
+    laws: &[Law],
+    work: &mut Work<T, N>,
+    count: usize,
+) {
+    let extra_planes = scene.planes().len() > N;
+    if extra_planes {
+        check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    }
+    for (law, out) in laws.iter().zip(work.outs.iter_mut()) {
+        if extra_planes {
+            // Extra-plane checks landed in geo.status after the lane passes.
+            for s in 0..count {
+                out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+            }
+        }
+        recompute(scene, *law, &work.inputs, out, count);
     }
 }
 
@@ -1477,12 +1488,8 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             &mut work.geo,
             &mut work.outs,
         );
-        check_extra_planes(scene, &work.inputs, &mut work.geo, n);
-        let o = &mut work.outs[0];
-        for s in 0..n {
-            o.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
-        }
-        recompute(scene, law, &work.inputs, o, n);
+        fallback(scene, &[law], &mut work, n);
+        let o = &work.outs[0];
         let x = &work.inputs;
         for s in 0..n {
             let f = |a: &[[T; BLOCK]; 3]| [a[0][s].to_f64(), a[1][s].to_f64(), a[2][s].to_f64()];

@@ -11,9 +11,9 @@
 //!   at least as well conditioned, so no subset solve can blow up);
 //! - grazing contacts in f32 (`|v_n| < 1e-5 · (|v| + L|ω|)`), where the
 //!   approaching test and the rebound ratio are not trustworthy (f32 rounds
-//!   v_n to about 1e-7 of the scale; every law is continuous in v_n, so a
-//!   contact just outside the margin misjudged would move v⁺ by O(|v_n|)
-//!   only, and it cannot be misjudged: the margin is 50× the rounding);
+//!   v_n to about 1e-7 of the scale, so above the margin the test cannot be
+//!   misjudged; a misjudged lane would move v⁺ by only O(|v_n|) anyway,
+//!   since every law is continuous in v_n);
 //! - f32 energy changes within rounding of the `energy_gain` threshold;
 //! - an LCP without an acceptable candidate (jammed, or rounding);
 //! - a plane outside the placement that touches or is penetrated.

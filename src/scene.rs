@@ -938,15 +938,14 @@ impl Effects {
         if let Some(w) = self.constant_spin {
             s.push_str(&format!("; |ω⁺| = {w} in every sample (not computed)"));
         }
-        if !self.flight {
-            // Drop studies keep their own per-bounce statistics.
-            s.push_str(&format!("; statistics: {}", self.statistics.describe()));
-        }
         if self.flight {
+            // Drop studies keep their own per-bounce statistics.
             s.push_str(&format!(
                 "; gravity {} m/s², up to {} bounce(s), rotation in flight: {}",
                 self.gravity, self.bounces, self.flight_rotation
             ));
+        } else {
+            s.push_str(&format!("; statistics: {}", self.statistics.describe()));
         }
         s
     }

@@ -299,7 +299,6 @@ fn summary_only_and_per_sample_runs_merge_alike() {
         &s,
         &RunOptions {
             threads: 2,
-            progress: false,
             ..Default::default()
         },
         Some(&mut sink),
