@@ -199,12 +199,12 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     for s in 0..BLOCK {
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
-        let v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        let v2 = dot3(v, v);
         // The grazing test exists in f32 only (`graze` is 0 in f64): f64
         // lanes skip its two square roots.
         let f32_lanes = T::EPSILON.to_f64() > 1e-10;
         let vscale = if f32_lanes {
-            v2.sqrt() + c.length * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
+            c.length.mul_add(dot3(w, w).sqrt(), v2.sqrt())
         } else {
             T::ZERO
         };
@@ -215,11 +215,9 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
             if ROT {
                 let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
                 // u = Aᵀ n
-                let u: [T; 3] = std::array::from_fn(|col| {
-                    a[col] * n[0] + a[3 + col] * n[1] + a[6 + col] * n[2]
-                });
-                let h2 =
-                    c.semi2[0] * u[0] * u[0] + c.semi2[1] * u[1] * u[1] + c.semi2[2] * u[2] * u[2];
+                let u: [T; 3] =
+                    std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], n));
+                let h2 = dot3([c.semi2[0] * u[0], c.semi2[1] * u[1], c.semi2[2] * u[2]], u);
                 let minus_inv_h = -T::ONE / h2.sqrt();
                 rho[i] = [
                     c.dsq[0] * u[1] * u[2] * minus_inv_h,
@@ -227,9 +225,9 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
                     c.dsq[2] * u[0] * u[1] * minus_inv_h,
                 ];
             }
-            let mut vn = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+            let mut vn = dot3(n, v);
             if ROT {
-                vn = vn + rho[i][0] * w[0] + rho[i][1] * w[1] + rho[i][2] * w[2];
+                vn = rho[i][2].mul_add(w[2], rho[i][1].mul_add(w[1], rho[i][0].mul_add(w[0], vn)));
                 for k in 0..3 {
                     out.rho[i][k][s] = rho[i][k];
                 }
@@ -244,10 +242,11 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
             let mut g = [[T::ZERO; N]; N];
             for i in 0..N {
                 for j in i..N {
-                    g[i][j] = c.nn[i][j] * c.inv_mass
-                        + rho[i][0] * rho[j][0] * c.inv_inertia[0]
-                        + rho[i][1] * rho[j][1] * c.inv_inertia[1]
-                        + rho[i][2] * rho[j][2] * c.inv_inertia[2];
+                    let mut gij = c.nn[i][j] * c.inv_mass;
+                    for k in 0..3 {
+                        gij = (rho[i][k] * rho[j][k]).mul_add(c.inv_inertia[k], gij);
+                    }
+                    g[i][j] = gij;
                     g[j][i] = g[i][j];
                     out.g[i][j][s] = g[i][j];
                 }
@@ -257,13 +256,26 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
         } else {
             status |= bit(!det_ok0, RECOMPUTE);
         }
-        out.t_before[s] = T::HALF * c.mass * v2
-            + T::HALF
-                * (c.inertia[0] * w[0] * w[0]
-                    + c.inertia[1] * w[1] * w[1]
-                    + c.inertia[2] * w[2] * w[2]);
+        out.t_before[s] = T::HALF
+            * c.mass.mul_add(
+                v2,
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
         out.status[s] = status;
     }
+}
+
+/// `a · b` with fused steps.
+#[inline(always)]
+fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
+    a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
 }
 
 /// det of the unit-diagonal scaling of G.
@@ -533,17 +545,17 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
         let mut active = 0u32;
         for i in 0..N {
             for k in 0..3 {
-                dv[k] += lam[i] * c.normal[i][k];
+                dv[k] = lam[i].mul_add(c.normal[i][k], dv[k]);
                 if ROT {
-                    dl[k] += lam[i] * geo.rho[i][k][s];
+                    dl[k] = lam[i].mul_add(geo.rho[i][k][s], dl[k]);
                 }
             }
             active |= ((lam[i] > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
         }
-        let v: [T; 3] = std::array::from_fn(|k| x.v[k][s] + dv[k] * c.inv_mass);
+        let v: [T; 3] = std::array::from_fn(|k| dv[k].mul_add(c.inv_mass, x.v[k][s]));
         let w: [T; 3] = std::array::from_fn(|k| {
             if ROT {
-                x.w[k][s] + dl[k] * c.inv_inertia[k]
+                dl[k].mul_add(c.inv_inertia[k], x.w[k][s])
             } else {
                 x.w[k][s]
             }
@@ -553,18 +565,25 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
         for i in 0..N {
             let mut vn = geo.vn[i][s];
             for j in 0..N {
-                vn += g_at::<T, N, ROT>(c, geo, i, j, s) * lam[j];
+                vn = g_at::<T, N, ROT>(c, geo, i, j, s).mul_add(lam[j], vn);
             }
             out.vn_after[i][s] = vn;
             work += lam[i] * (geo.vn[i][s] + vn);
             work_abs += lam[i] * (geo.vn[i][s].abs() + vn.abs());
         }
         let t0 = geo.t_before[s];
-        let direct = T::HALF * c.mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-            + T::HALF
-                * (c.inertia[0] * w[0] * w[0]
-                    + c.inertia[1] * w[1] * w[1]
-                    + c.inertia[2] * w[2] * w[2]);
+        let direct = T::HALF
+            * c.mass.mul_add(
+                dot3(v, v),
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
         // f32: T⁺ = T⁻ + ΔT with ΔT = ½Σλ(v_n⁻ + v_n⁺) exactly (physics.md),
         // accurate relative to ΔT rather than to T.
         let dt = T::HALF * work;

@@ -6,8 +6,11 @@
 //! loop into full-width SIMD. The block functions are compiled several times
 //! with `multiversion` (AVX-512, AVX2+FMA, baseline SSE2) and the widest one
 //! the CPU supports is chosen at run time: no `-C target-cpu=native` needed.
-//! No code here calls `mul_add`, so every target rounds identically and the
-//! results do not depend on the machine's SIMD width.
+//! Fused multiply-adds are written out as [`Real::mul_add`], never left to
+//! the compiler: a fused step has one rounding on every target (one
+//! instruction where the CPU has FMA, a software fma on the SSE2 baseline,
+//! which only CPUs from before 2013 select), so results do not depend on
+//! the machine's SIMD width or on its FMA unit.
 //!
 //! `ln` and `sin_cos_2pi` are our own branch-free polynomial versions (libm's
 //! do not vectorise). They are accurate to a few ulp of each type and are
@@ -51,6 +54,10 @@ pub trait Real:
     fn to_f64(self) -> f64;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
+    /// `self · a + b` with one rounding (fused). A single instruction on
+    /// the FMA targets; on CPUs without FMA it runs in software with the
+    /// same result, so every target rounds identically.
+    fn mul_add(self, a: Self, b: Self) -> Self;
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
     /// A uniform draw in the open interval (0, 1) from 64 random bits:
@@ -77,6 +84,16 @@ pub trait Real:
     /// bits (so f32 lanes stay 16 wide). Every finite value of the type gets
     /// the bin its f64 conversion would.
     fn log_bin(self, sub_bits: u32, min_exp: i32, bins: i32) -> u16;
+}
+
+/// `c₀ + c₁x + c₂x² + …` by Horner's rule with fused steps.
+#[inline(always)]
+fn horner<T: Real, const K: usize>(c: [T; K], x: T) -> T {
+    let mut p = c[K - 1];
+    for k in (0..K - 1).rev() {
+        p = p.mul_add(x, c[k]);
+    }
+    p
 }
 
 /// `if c { a } else { b }` as a value (a blend when vectorised).
@@ -118,6 +135,10 @@ macro_rules! real_impl {
                 <$t>::abs(self)
             }
             #[inline(always)]
+            fn mul_add(self, a: Self, b: Self) -> Self {
+                <$t>::mul_add(self, a, b)
+            }
+            #[inline(always)]
             fn min(self, o: Self) -> Self {
                 if self < o { self } else { o }
             }
@@ -149,11 +170,8 @@ macro_rules! real_impl {
                 let e = (raw_exp + big as i32) as $t;
                 let s = (m - 1.0) / (m + 1.0);
                 let s2 = s * s;
-                let mut p: $t = 0.0;
-                for c in [$($lc),*].iter().rev() {
-                    p = p * s2 + (*c as $t);
-                }
-                2.0 * s * p + e * core::f64::consts::LN_2 as $t
+                let p = horner([$($lc as $t),*], s2);
+                e.mul_add(core::f64::consts::LN_2 as $t, 2.0 * s * p)
             }
             #[inline(always)]
             fn sin_cos_2pi(self) -> (Self, Self) {
@@ -191,15 +209,7 @@ macro_rules! real_impl {
             fn sin_cos_quarter(r: Self) -> (Self, Self) {
                 let a = r * core::f64::consts::FRAC_PI_2 as $t;
                 let a2 = a * a;
-                let mut sp: $t = 0.0;
-                for c in [$($sc),*].iter().rev() {
-                    sp = sp * a2 + (*c as $t);
-                }
-                let mut cp: $t = 0.0;
-                for c in [$($cc),*].iter().rev() {
-                    cp = cp * a2 + (*c as $t);
-                }
-                (a * sp, cp)
+                (a * horner([$($sc as $t),*], a2), horner([$($cc as $t),*], a2))
             }
         }
     };

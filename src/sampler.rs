@@ -224,8 +224,8 @@ impl Sampler {
                 let (z4, z5) = box_muller::<T>(self.u(i, 7), self.u(i, 8));
                 let (zv, zw) = ([z0, z1, z2], [z3, z4, z5]);
                 for k in 0..3 {
-                    out.v[k][s] = mv[k] + dv[k] * zv[k];
-                    out.w[k][s] = mw[k] + dw[k] * zw[k];
+                    out.v[k][s] = dv[k].mul_add(zv[k], mv[k]);
+                    out.w[k][s] = dw[k].mul_add(zw[k], mw[k]);
                 }
             }
         } else {
@@ -261,7 +261,7 @@ impl Sampler {
                         [a1, b0, b1]
                     };
                     for k in 0..3 {
-                        out[k][s] = m[k] + d[k] * z[k];
+                        out[k][s] = d[k].mul_add(z[k], m[k]);
                     }
                 }
             }
@@ -271,7 +271,7 @@ impl Sampler {
                 for s in 0..BLOCK {
                     let i = first + s as u64;
                     for k in 0..3 {
-                        out[k][s] = l[k] + w[k] * self.u(i, 3 + 3 * which + k as u32);
+                        out[k][s] = w[k].mul_add(self.u(i, 3 + 3 * which + k as u32), l[k]);
                     }
                 }
             }

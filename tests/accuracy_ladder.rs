@@ -66,8 +66,10 @@ fn pgs_error_falls_with_sweeps_and_reaches_newton_within_64_on_s3() {
         }
         let rms = (sum2 / samples.len() as f64).sqrt();
         table.push((sweeps, rms, worst));
+        // Falling until it reaches rounding level, where it only has to
+        // stay (the last digits of a rounding-level error are noise).
         assert!(
-            rms <= previous,
+            rms <= previous || rms < 1e-14,
             "PGS error rose from {previous:e} to {rms:e} at {sweeps} sweeps: {table:?}"
         );
         previous = rms;
