@@ -22,7 +22,7 @@ use crate::lanes::{select, Real};
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler, BLOCK};
 use crate::scene::{Precision, Scene};
-use crate::stats::{LogHistogram, Moments, Stat, BINS};
+use crate::stats::{scatter, LogHistogram, Moments, Stat, BINS};
 
 /// The kernel instantiation a run uses, chosen once per run from the scene's
 /// derived effects: each effect a scene does not need is compiled out of
@@ -892,22 +892,61 @@ fn block_stats<T: Real, const N: usize>(
             block_stats_by_set(la, d, count, plan, &mut bins);
         } else {
             // Histograms straight into the "all" statistics.
-            if plan.quantiles[0] {
-                la.energy_ratio.hist.push_weighted(&d.ratio, &d.impacting);
+            if let Some(w) = spin.filter(|_| plan.quantiles[1]) {
+                la.omega_after_norm.hist.push_repeated(w, impacts as u64);
             }
-            if plan.quantiles[1] {
-                match spin {
-                    Some(w) => la.omega_after_norm.hist.push_repeated(w, impacts as u64),
-                    None => la
+            let lanes =
+                plan.quantiles[0] && plan.quantiles[2] && (spin.is_some() || plan.quantiles[1]);
+            if impacts > 0 && lanes {
+                // The usual plan: the headline histograms' increments in one
+                // scatter loop.
+                let (mut ib, mut is, mut io) = ([0u16; BLOCK], [0u16; BLOCK], [0u16; BLOCK]);
+                let kr = la
+                    .energy_ratio
+                    .hist
+                    .bin_pass(&d.ratio, &d.impacting, &mut ib);
+                let ks = la
+                    .velocity_after_norm
+                    .hist
+                    .bin_pass(&d.speed, &d.impacting, &mut is);
+                if spin.is_none() {
+                    let ko = la
                         .omega_after_norm
                         .hist
-                        .push_weighted(&d.omega, &d.impacting),
+                        .bin_pass(&d.omega, &d.impacting, &mut io);
+                    scatter(
+                        [
+                            la.energy_ratio.hist.positive_bins(),
+                            la.velocity_after_norm.hist.positive_bins(),
+                            la.omega_after_norm.hist.positive_bins(),
+                        ],
+                        [&ib, &is, &io],
+                        [kr, ks, ko],
+                    );
+                } else {
+                    scatter(
+                        [
+                            la.energy_ratio.hist.positive_bins(),
+                            la.velocity_after_norm.hist.positive_bins(),
+                        ],
+                        [&ib, &is],
+                        [kr, ks],
+                    );
                 }
-            }
-            if plan.quantiles[2] {
-                la.velocity_after_norm
-                    .hist
-                    .push_weighted(&d.speed, &d.impacting);
+            } else if !lanes {
+                if plan.quantiles[0] {
+                    la.energy_ratio.hist.push_weighted(&d.ratio, &d.impacting);
+                }
+                if plan.quantiles[1] && spin.is_none() {
+                    la.omega_after_norm
+                        .hist
+                        .push_weighted(&d.omega, &d.impacting);
+                }
+                if plan.quantiles[2] {
+                    la.velocity_after_norm
+                        .hist
+                        .push_weighted(&d.speed, &d.impacting);
+                }
             }
         }
         if li == 0 {

@@ -290,31 +290,40 @@ pub fn bin_edges(b: usize) -> (f64, f64) {
 
 impl LogHistogram {
     /// Adds the values of `xs` with weight 1: bin indices in a vectorised
-    /// pass, increments by the weight (no branch); values ≤ 0 go through
-    /// [`Self::push`].
+    /// pass ([`Self::bin_pass`]), then a scatter of increments; values ≤ 0
+    /// are counted apart.
     #[inline(always)]
     pub fn push_weighted<T: Real, const B: usize>(&mut self, xs: &[T; B], w: &[T; B]) {
         if self.pos.is_empty() && !w.iter().any(|&x| x > T::ZERO) {
             return;
         }
         let mut idx = [0u16; B];
-        let mut inc = [0u32; B];
+        let skipped = self.bin_pass(xs, w, &mut idx);
+        scatter([self.positive_bins()], [&idx], [skipped]);
+    }
+
+    /// The vector part of [`Self::push_weighted`]: the bin of every counted
+    /// positive value into `idx`, and bin 0 for every other lane, so that
+    /// the scatter adds exactly 1 per lane ([`scatter`] then takes the
+    /// returned number of other lanes off bin 0). Exact zeros are counted
+    /// here and negatives (rare) pushed one by one.
+    #[inline(always)]
+    pub fn bin_pass<T: Real, const B: usize>(
+        &mut self,
+        xs: &[T; B],
+        w: &[T; B],
+        idx: &mut [u16; B],
+    ) -> u32 {
+        let mut skipped = 0u32;
         let mut negative = false;
         let mut zeros = 0u32;
         for k in 0..B {
-            idx[k] = Self::bin_of(xs[k]);
-            inc[k] = ((w[k] > T::ZERO) & (xs[k] > T::ZERO)) as u32;
+            let on = (w[k] > T::ZERO) & (xs[k] > T::ZERO);
+            idx[k] = if on { Self::bin_of(xs[k]) } else { 0 };
+            skipped += !on as u32;
             negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
             zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u32;
         }
-        // The scatter itself: a load, an add and a store per lane, with the
-        // weights computed above in the vector pass.
-        let pos = self.positive_bins();
-        for k in 0..B {
-            pos[idx[k] as usize & (BINS - 1)] += inc[k] as u64;
-        }
-        // Exact zeros (a sphere's |ω⁺| = 0, an inactive plane's impulse)
-        // are counted in the vector pass; negatives are rare.
         self.zero += zeros as u64;
         if negative {
             for k in 0..B {
@@ -323,6 +332,7 @@ impl LogHistogram {
                 }
             }
         }
+        skipped
     }
 
     /// The counts of positive values by bin (allocated on first use), for
@@ -490,6 +500,27 @@ impl LogHistogram {
             below += c;
         }
         max
+    }
+}
+
+/// Adds 1 to `tables[h][idx[h][k]]` for every lane k of every histogram h,
+/// in one loop (the increments of different tables are independent, so
+/// they overlap), then takes `skipped[h]` off bin 0 of each (the lanes
+/// [`LogHistogram::bin_pass`] parked there).
+#[inline(always)]
+pub fn scatter<const H: usize, const B: usize>(
+    tables: [&mut [u64; BINS]; H],
+    idx: [&[u16; B]; H],
+    skipped: [u32; H],
+) {
+    let mut tables = tables;
+    for k in 0..B {
+        for h in 0..H {
+            tables[h][idx[h][k] as usize & (BINS - 1)] += 1;
+        }
+    }
+    for h in 0..H {
+        tables[h][0] -= skipped[h] as u64;
     }
 }
 
