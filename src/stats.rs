@@ -513,7 +513,6 @@ pub fn scatter<const H: usize, const B: usize>(
     idx: [&[u16; B]; H],
     skipped: [u32; H],
 ) {
-    let mut tables = tables;
     for k in 0..B {
         for h in 0..H {
             tables[h][idx[h][k] as usize & (BINS - 1)] += 1;
