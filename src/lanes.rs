@@ -200,10 +200,11 @@ macro_rules! real_impl {
             }
             #[inline(always)]
             fn log_bin(self, sub_bits: u32, min_exp: i32, bins: i32) -> u16 {
-                let bits = self.abs().to_bits();
-                let exp = ((bits >> $mant) as i32 & (2 * $bias + 1)) - $bias;
-                let sub = ((bits >> ($mant - sub_bits)) as i32) & ((1 << sub_bits) - 1);
-                ((exp - min_exp) * (1 << sub_bits) + sub).clamp(0, bins - 1) as u16
+                // |x|'s bits shifted so that the biased exponent and the
+                // top `sub_bits` of the mantissa are one integer
+                // (exponent · 2^sub_bits + sub-bin); then one offset.
+                let top = (self.abs().to_bits() >> ($mant - sub_bits)) as i32;
+                (top - (($bias + min_exp) << sub_bits)).clamp(0, bins - 1) as u16
             }
             #[inline(always)]
             fn sin_cos_quarter(r: Self) -> (Self, Self) {

@@ -315,20 +315,29 @@ impl LogHistogram {
         idx: &mut [u16; B],
     ) -> u32 {
         let mut skipped = 0u32;
-        let mut negative = false;
-        let mut zeros = 0u32;
+        let mut other = false;
         for k in 0..B {
-            let on = (w[k] > T::ZERO) & (xs[k] > T::ZERO);
+            let counted = w[k] > T::ZERO;
+            let on = counted & (xs[k] > T::ZERO);
             idx[k] = if on { Self::bin_of(xs[k]) } else { 0 };
             skipped += !on as u32;
-            negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
-            zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u32;
+            other |= counted & !(xs[k] > T::ZERO);
         }
-        self.zero += zeros as u64;
-        if negative {
+        if other {
+            // Counted values ≤ 0: exact zeros by a compare-and-sum pass,
+            // negatives (rare) one by one.
+            let mut zeros = 0u32;
+            let mut negative = false;
             for k in 0..B {
-                if w[k] > T::ZERO && xs[k] < T::ZERO {
-                    self.push(xs[k].to_f64());
+                zeros += ((w[k] > T::ZERO) & (xs[k] == T::ZERO)) as u32;
+                negative |= (w[k] > T::ZERO) & (xs[k] < T::ZERO);
+            }
+            self.zero += zeros as u64;
+            if negative {
+                for k in 0..B {
+                    if w[k] > T::ZERO && xs[k] < T::ZERO {
+                        self.push(xs[k].to_f64());
+                    }
                 }
             }
         }
