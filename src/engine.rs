@@ -859,26 +859,38 @@ fn block_stats<T: Real, const N: usize>(
             la.active_sets[m] += c as u64;
             la.groups[m].samples += c as u64;
         }
-        la.energy_ratio
-            .moments
-            .push_weighted(&d.ratio, &d.impacting);
+        // Moments of the statistics weighted by `impacting`, fused into
+        // passes of up to three statistics.
         match spin {
-            Some(w) => la.omega_after_norm.moments.push_repeated(w, impacts as u64),
-            None => la
-                .omega_after_norm
-                .moments
-                .push_weighted(&d.omega, &d.impacting),
+            Some(w) => {
+                la.omega_after_norm.moments.push_repeated(w, impacts as u64);
+                Moments::push_weighted_many(
+                    [
+                        &mut la.energy_ratio.moments,
+                        &mut la.velocity_after_norm.moments,
+                    ],
+                    [&d.ratio, &d.speed],
+                    &d.impacting,
+                );
+            }
+            None => Moments::push_weighted_many(
+                [
+                    &mut la.energy_ratio.moments,
+                    &mut la.omega_after_norm.moments,
+                    &mut la.velocity_after_norm.moments,
+                ],
+                [&d.ratio, &d.omega, &d.speed],
+                &d.impacting,
+            ),
         }
-        la.velocity_after_norm
-            .moments
-            .push_weighted(&d.speed, &d.impacting);
+        {
+            let mut impulse = la.impulse.iter_mut().map(|s| &mut s.moments);
+            let ms: [&mut Moments; N] = std::array::from_fn(|_| impulse.next().expect("N"));
+            Moments::push_weighted_many(ms, std::array::from_fn(|i| &d.lambda[i]), &d.impacting);
+        }
         for i in 0..N {
             if plan.quantiles[3] {
-                la.impulse[i].push_weighted(&d.lambda[i], &d.impacting);
-            } else {
-                la.impulse[i]
-                    .moments
-                    .push_weighted(&d.lambda[i], &d.impacting);
+                la.impulse[i].hist.push_weighted(&d.lambda[i], &d.impacting);
             }
             if plan.quantiles[4] {
                 la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
