@@ -195,7 +195,7 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     x: &Inputs<T>,
     out: &mut Geometry<T, N>,
 ) {
-    let det_ok0 = scaled_det(&c.g0) >= c.det_min;
+    let det_ok0 = well_conditioned(&c.g0, c.det_min);
     for s in 0..BLOCK {
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
@@ -210,21 +210,34 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
         };
         let mut rho = [[T::ZERO; 3]; N];
         let mut status = 0u32;
-        for i in 0..N {
-            let n = c.normal[i];
-            if ROT {
-                let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
-                // u = Aᵀ n
-                let u: [T; 3] =
-                    std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], n));
-                let h2 = dot3([c.semi2[0] * u[0], c.semi2[1] * u[1], c.semi2[2] * u[2]], u);
-                let minus_inv_h = -T::ONE / h2.sqrt();
+        if ROT {
+            let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+            // u = Aᵀ n (the normal in the body frame) and h = √(uᵀ diag(a², b², c²) u).
+            let u: [[T; 3]; N] = std::array::from_fn(|i| {
+                std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], c.normal[i]))
+            });
+            let h: [T; N] = std::array::from_fn(|i| {
+                dot3(
+                    [
+                        c.semi2[0] * u[i][0],
+                        c.semi2[1] * u[i][1],
+                        c.semi2[2] * u[i][2],
+                    ],
+                    u[i],
+                )
+                .sqrt()
+            });
+            let minus_inv_h: [T; N] = std::array::from_fn(|i| -T::ONE / h[i]);
+            for i in 0..N {
                 rho[i] = [
-                    c.dsq[0] * u[1] * u[2] * minus_inv_h,
-                    c.dsq[1] * u[2] * u[0] * minus_inv_h,
-                    c.dsq[2] * u[0] * u[1] * minus_inv_h,
+                    c.dsq[0] * u[i][1] * u[i][2] * minus_inv_h[i],
+                    c.dsq[1] * u[i][2] * u[i][0] * minus_inv_h[i],
+                    c.dsq[2] * u[i][0] * u[i][1] * minus_inv_h[i],
                 ];
             }
+        }
+        for i in 0..N {
+            let n = c.normal[i];
             let mut vn = dot3(n, v);
             if ROT {
                 vn = rho[i][2].mul_add(w[2], rho[i][1].mul_add(w[1], rho[i][0].mul_add(w[0], vn)));
@@ -251,8 +264,7 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
                     out.g[i][j][s] = g[i][j];
                 }
             }
-            let det_s = scaled_det(&g);
-            status |= bit(!(det_s >= c.det_min), RECOMPUTE);
+            status |= bit(!well_conditioned(&g, c.det_min), RECOMPUTE);
         } else {
             status |= bit(!det_ok0, RECOMPUTE);
         }
@@ -278,17 +290,19 @@ fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
 }
 
-/// det of the unit-diagonal scaling of G.
+/// Whether det S ≥ `det_min` for S the unit-diagonal scaling of G, i.e.
+/// det G ≥ det_min · Π Gᵢᵢ (the diagonal is positive), without a division.
+/// False for NaN.
 #[inline(always)]
-fn scaled_det<T: Real, const N: usize>(g: &[[T; N]; N]) -> T {
+fn well_conditioned<T: Real, const N: usize>(g: &[[T; N]; N], det_min: T) -> bool {
     match N {
-        1 => T::ONE,
-        2 => T::ONE - g[0][1] * g[0][1] / (g[0][0] * g[1][1]),
+        1 => true,
+        2 => g[0][0] * g[1][1] - g[0][1] * g[0][1] >= det_min * (g[0][0] * g[1][1]),
         _ => {
             let det = g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1])
                 - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0])
                 + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
-            det / (g[0][0] * g[1][1] * g[2][2])
+            det >= det_min * (g[0][0] * g[1][1] * g[2][2])
         }
     }
 }
