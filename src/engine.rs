@@ -907,9 +907,9 @@ fn block_stats<T: Real, const N: usize>(
             if let Some(w) = spin.filter(|_| plan.quantiles[1]) {
                 la.omega_after_norm.hist.push_repeated(w, impacts as u64);
             }
-            let lanes =
+            let headline =
                 plan.quantiles[0] && plan.quantiles[2] && (spin.is_some() || plan.quantiles[1]);
-            if impacts > 0 && lanes {
+            if impacts > 0 && headline {
                 // The usual plan: the headline histograms' increments in one
                 // scatter loop.
                 let (mut ib, mut is, mut io) = ([0u16; BLOCK], [0u16; BLOCK], [0u16; BLOCK]);
@@ -945,7 +945,7 @@ fn block_stats<T: Real, const N: usize>(
                         [kr, ks],
                     );
                 }
-            } else if !lanes {
+            } else if !headline {
                 if plan.quantiles[0] {
                     la.energy_ratio.hist.push_weighted(&d.ratio, &d.impacting);
                 }

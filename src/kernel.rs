@@ -490,8 +490,7 @@ fn full_support<T: Real, const N: usize>(
     };
     let margin = T::from_f64(8.0) * c.accept * scale * bound;
     // The empty support comes first in the enumeration and wins whenever
-    // its violation is acceptable (no contact approaching, as in most
-    // restitution phases of Poisson's law): λ = 0.
+    // its violation is acceptable (no contact approaching): λ = 0.
     let empty = viol0 <= c.accept * scale;
     let lam = lam.map(|l| select(empty, T::ZERO, l));
     (lam, empty | ((least > T::ZERO) & (least * det > margin)))
@@ -499,9 +498,10 @@ fn full_support<T: Real, const N: usize>(
 
 /// [`lcp_lane`] for every lane of a block, with `q` by lane: the empty or
 /// the full support's candidate where [`full_support`] certifies it (on S3
-/// about 96 % of lanes under Newton, 99 % of Poisson's restitution phases),
-/// and the enumeration, 16 lanes at a time, for the lanes gathered from the
-/// rest. The same answers as `lcp_lane` in every lane.
+/// about 96 % of lanes under Newton), and the enumeration, 16 lanes at a
+/// time, for the lanes gathered from the rest (in place when they are more
+/// than a quarter of the block). The same answers as `lcp_lane` in every
+/// lane.
 #[inline(always)]
 fn lcp_block<T: Real, const N: usize, const ROT: bool>(
     c: &Consts<T, N>,
