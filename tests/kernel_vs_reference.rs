@@ -2,13 +2,13 @@
 //! by sample, on the canonical scenes: f64 to 1e-12 of the velocity scale,
 //! f32 within the documented bound (README, "Precision").
 
-use std::path::Path;
+mod support;
 
 use glam::{DMat3, DVec3};
 use impactmc::engine::evaluate_samples;
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use impactmc::sampler::Sampler;
-use impactmc::scene::{load_scene, Overrides, Scene};
+use impactmc::scene::Scene;
 
 const SCENES: [&str; 3] = ["floor", "corner2_paper", "corner3"];
 const LAWS: [Law; 5] = [
@@ -24,15 +24,7 @@ const LAWS: [Law; 5] = [
 pub const F32_VELOCITY_BOUND: f64 = 1e-5;
 
 fn scene(name: &str, precision: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
-    load_scene(
-        &path,
-        &Overrides {
-            precision: Some(precision.into()),
-            ..Overrides::default()
-        },
-    )
-    .unwrap()
+    support::shipped_scene(name, precision)
 }
 
 /// Worst error (relative to the velocity scale) of the kernel against the

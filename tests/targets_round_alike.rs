@@ -5,26 +5,13 @@
 //! `mul_add` runs as a software fma). On a CPU without AVX2 both sides are
 //! baseline code and the test still holds.
 
-use std::path::Path;
+mod support;
 
 use impactmc::engine::{kernel_block, sample_block};
 use impactmc::kernel::{geometry, impulses, post, Consts, Geometry, LawOut};
 use impactmc::lanes::Real;
 use impactmc::physics::Law;
 use impactmc::sampler::{Inputs, Sampler};
-use impactmc::scene::{load_scene, Overrides, Scene};
-
-fn scene(name: &str, precision: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
-    load_scene(
-        &path,
-        &Overrides {
-            precision: Some(precision.into()),
-            ..Overrides::default()
-        },
-    )
-    .expect("shipped scene")
-}
 
 fn bits<T: Real>(rows: &[[T; impactmc::sampler::BLOCK]]) -> Vec<u64> {
     rows.iter()
@@ -33,7 +20,7 @@ fn bits<T: Real>(rows: &[[T; impactmc::sampler::BLOCK]]) -> Vec<u64> {
 }
 
 fn same_bits<T: Real, const N: usize, const ROT: bool, const CPL: bool>(name: &str, law: Law) {
-    let s = scene(name, T::NAME);
+    let s = support::shipped_scene(name, T::NAME);
     let consts = Consts::<T, N>::new(&s);
     let sampler = Sampler::new(&s);
     for first in [0u64, 192 * 1000 + 7, 1 << 40] {

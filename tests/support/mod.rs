@@ -5,6 +5,19 @@ pub mod scenes;
 
 use std::path::PathBuf;
 
+/// A shipped scene (`configs/NAME.toml`) in the given precision.
+pub fn shipped_scene(name: &str, precision: &str) -> impactmc::scene::Scene {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
+    impactmc::scene::load_scene(
+        &path,
+        &impactmc::scene::Overrides {
+            precision: Some(precision.into()),
+            ..Default::default()
+        },
+    )
+    .expect("shipped scene")
+}
+
 /// `shared/` beside the repository (CI clones the repo next to it).
 /// `IMPACTMC_SHARED` overrides the location.
 pub fn shared_dir() -> PathBuf {
