@@ -15,10 +15,12 @@ const _: () = assert!(BINS.is_power_of_two());
 
 use crate::lanes::{Real, X16};
 
-/// Sixteen-lane partial sums of a block, in the values' own precision:
-/// weight, shifted sum, shifted sum of squares, min and max of the weighted
-/// values. A function of its own, compiled per target: inlined into a large
-/// caller, LLVM scalarises part of it.
+/// Sixteen-lane partial sums of a block for K statistics that share their
+/// weights, in the values' own precision: weight, then per statistic the
+/// shifted sum, shifted sum of squares, min and max of the weighted values,
+/// over the block's first `16·⌊B/16⌋` lanes (the caller adds the rest). The
+/// weights are loaded and summed once. A function of its own, compiled per
+/// target: inlined into a large caller, LLVM scalarises part of it.
 ///
 /// In f32 (the f32 kernel's statistics) a block's sums are over at most a
 /// few hundred values, shifted by the batch's first value, so their
@@ -28,36 +30,7 @@ use crate::lanes::{Real, X16};
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
     "x86_64+avx2+fma",
 ))]
-fn masked_sums<T: Real, const B: usize>(xs: &[T; B], w: &[T; B], shift: T) -> [X16<T>; 5] {
-    let shift = X16::splat(shift);
-    let (inf, ninf) = (X16::splat(T::INFINITY), X16::splat(T::NEG_INFINITY));
-    let mut n = X16::splat(T::ZERO);
-    let mut s1 = n;
-    let mut s2 = n;
-    let mut lo = inf;
-    let mut hi = ninf;
-    for c in 0..B / 16 {
-        let x = X16::load(xs, c);
-        let wk = X16::load(w, c);
-        let d = (x - shift) * wk;
-        n = n + wk;
-        s1 = s1 + d;
-        s2 = s2 + d * d;
-        lo = lo.min(X16::select_positive(wk, x, inf));
-        hi = hi.max(X16::select_positive(wk, x, ninf));
-    }
-    [n, s1, s2, lo, hi]
-}
-
-/// [`masked_sums`] of K statistics that share their weights, in one pass:
-/// the weights are loaded and summed once, and each statistic's four
-/// partial sums are the same operations in the same order as
-/// `masked_sums` would do (so the same bits). `B` is a multiple of 16.
-#[multiversion::multiversion(targets(
-    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma",
-    "x86_64+avx2+fma",
-))]
-fn masked_sums_many<T: Real, const K: usize, const B: usize>(
+fn masked_sums<T: Real, const K: usize, const B: usize>(
     xs: [&[T; B]; K],
     w: &[T; B],
     shift: [T; K],
@@ -150,49 +123,22 @@ impl Moments {
     }
 
     /// Adds the values of `xs` with weight 1 in `w` (weights are 0 or 1;
-    /// every `xs` must be finite). The sums run in eight fixed partial
+    /// every `xs` must be finite). The sums run in sixteen fixed partial
     /// accumulators, so the loop vectorises and the order of additions is
     /// fixed.
     #[inline(always)]
     pub fn push_weighted<T: Real, const B: usize>(&mut self, xs: &[T; B], w: &[T; B]) {
-        if self.pending_n == 0 {
-            match xs.iter().zip(w).find(|(_, &m)| m > T::ZERO) {
-                Some((&x, _)) => self.shift = x.to_f64(),
-                None => return,
-            }
-        }
-        // The shift is a value of the stream, so exact in its type.
-        let [n, s1, s2, lo, hi] = masked_sums(xs, w, T::from_f64(self.shift));
-        let (mut n, mut s1, mut s2, mut lo, mut hi) = (n, s1, s2, lo, hi);
-        let shift = T::from_f64(self.shift);
-        for k in B / 16 * 16..B {
-            if w[k] > T::ZERO {
-                let d = xs[k] - shift;
-                n.0[0] += T::ONE;
-                s1.0[0] += d;
-                s2.0[0] += d * d;
-                lo.0[0] = lo.0[0].min(xs[k]);
-                hi.0[0] = hi.0[0].max(xs[k]);
-            }
-        }
-        // Counts are exact small integers and extrema are order-free, so
-        // tree reductions; the sums stay per lane.
-        self.pending_n += n.tree_sum().to_f64() as u64;
-        self.s1 = self.s1 + s1.to_f64();
-        self.s2 = self.s2 + s2.to_f64();
-        self.min = self.min.min(lo.tree_min().to_f64());
-        self.max = self.max.max(hi.tree_max().to_f64());
+        Self::push_weighted_many([self], [xs], w);
     }
 
     /// [`Self::push_weighted`] for K statistics with the same weights, in
-    /// one pass over the block (the same sums, bit for bit).
+    /// one pass over the block (each gets the sums it would get alone).
     #[inline(always)]
     pub fn push_weighted_many<T: Real, const K: usize, const B: usize>(
         ms: [&mut Moments; K],
         xs: [&[T; B]; K],
         w: &[T; B],
     ) {
-        const { assert!(B % 16 == 0) };
         let Some(first) = w.iter().position(|&m| m > T::ZERO) else {
             return;
         };
@@ -204,7 +150,23 @@ impl Moments {
             }
             shift[k] = T::from_f64(ms[k].shift);
         }
-        let (n, acc) = masked_sums_many(xs, w, shift);
+        // The shift is a value of the stream, so exact in its type.
+        let (mut n, mut acc) = masked_sums(xs, w, shift);
+        for l in B / 16 * 16..B {
+            if w[l] > T::ZERO {
+                n.0[0] += T::ONE;
+                for k in 0..K {
+                    let d = xs[k][l] - shift[k];
+                    let [s1, s2, lo, hi] = &mut acc[k];
+                    s1.0[0] += d;
+                    s2.0[0] += d * d;
+                    lo.0[0] = lo.0[0].min(xs[k][l]);
+                    hi.0[0] = hi.0[0].max(xs[k][l]);
+                }
+            }
+        }
+        // Counts are exact small integers and extrema are order-free, so
+        // tree reductions; the sums stay per lane.
         let n = n.tree_sum().to_f64() as u64;
         for (m, [s1, s2, lo, hi]) in ms.iter_mut().zip(acc) {
             m.pending_n += n;
@@ -684,9 +646,10 @@ mod tests {
         );
     }
 
-    /// The fused pass over statistics with shared weights gives what one
-    /// pass per statistic gives, bit for bit, including blocks without a
-    /// weighted lane and a batch whose first block has none.
+    /// Three statistics with shared weights in one pass get what each gets
+    /// in a pass of its own, bit for bit (the shared count and the shifts
+    /// are per statistic), including blocks without a weighted lane and a
+    /// batch whose first block has none.
     #[test]
     fn fused_moments_are_the_separate_ones() {
         let mut fused: [Moments; 3] = Default::default();
