@@ -511,16 +511,9 @@ fn lcp_block<T: Real, const N: usize, const ROT: bool>(
     ok: &mut [bool; BLOCK],
 ) {
     let mut certain = [false; BLOCK];
-    for s in 0..BLOCK {
-        let g = lane_g::<T, N, ROT>(c, geo, s);
-        let qs: [T; N] = std::array::from_fn(|i| q[i][s]);
-        let (l, sure) = full_support(c, &g, &qs);
-        for i in 0..N {
-            lam[i][s] = l[i];
-        }
-        certain[s] = sure;
-        ok[s] = true;
-    }
+    each_lane::<T, N, ROT>(c, geo, q, lam, &mut certain, |g, q| full_support(c, g, q));
+    // A certified candidate meets the conditions.
+    *ok = [true; BLOCK];
     // The other lanes, compacted (branch-free) and enumerated in chunks of
     // 16 (the last chunk padded with copies of its last lane).
     let mut idx = [0u16; BLOCK];
@@ -579,14 +572,27 @@ fn lcp_lanes<T: Real, const N: usize, const ROT: bool>(
     lam: &mut [[T; BLOCK]; N],
     ok: &mut [bool; BLOCK],
 ) {
+    each_lane::<T, N, ROT>(c, geo, q, lam, ok, |g, q| lcp_lane(c, g, q));
+}
+
+/// `solve(G, q)` of every lane of a block into `lam` and `flag`.
+#[inline(always)]
+fn each_lane<T: Real, const N: usize, const ROT: bool>(
+    c: &Consts<T, N>,
+    geo: &Geometry<T, N>,
+    q: &[[T; BLOCK]; N],
+    lam: &mut [[T; BLOCK]; N],
+    flag: &mut [bool; BLOCK],
+    solve: impl Fn(&[[T; N]; N], &[T; N]) -> ([T; N], bool),
+) {
     for s in 0..BLOCK {
         let g = lane_g::<T, N, ROT>(c, geo, s);
         let qs: [T; N] = std::array::from_fn(|i| q[i][s]);
-        let (l, o) = lcp_lane(c, &g, &qs);
+        let (l, f) = solve(&g, &qs);
         for i in 0..N {
             lam[i][s] = l[i];
         }
-        ok[s] = o;
+        flag[s] = f;
     }
 }
 
