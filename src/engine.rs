@@ -219,6 +219,60 @@ impl LawAcc {
         }
     }
 
+    /// Back to the state of `new`, keeping the histograms' tables. Every
+    /// field is named, so a new field cannot be forgotten here.
+    fn clear(&mut self) {
+        let Self {
+            samples,
+            impacts,
+            energy_gain,
+            degenerate,
+            jammed,
+            unsolved,
+            recomputed,
+            penetrating,
+            active_sets,
+            energy_ratio,
+            omega_after_norm,
+            velocity_after_norm,
+            impulse,
+            rebound,
+            groups,
+        } = self;
+        for c in [
+            samples,
+            impacts,
+            energy_gain,
+            degenerate,
+            jammed,
+            unsolved,
+            recomputed,
+            penetrating,
+        ] {
+            *c = 0;
+        }
+        active_sets.fill(0);
+        for s in [energy_ratio, omega_after_norm, velocity_after_norm] {
+            s.clear();
+        }
+        for s in impulse.iter_mut().chain(rebound.iter_mut()) {
+            s.clear();
+        }
+        for g in groups {
+            let GroupAcc {
+                samples,
+                impacts,
+                energy_ratio,
+                omega_after_norm,
+                velocity_after_norm,
+            } = g;
+            (*samples, *impacts) = (0, 0);
+            for s in [energy_ratio, omega_after_norm, velocity_after_norm] {
+                s.clear();
+            }
+        }
+    }
+
     fn merge(&mut self, o: &LawAcc) {
         self.samples += o.samples;
         self.impacts += o.impacts;
@@ -256,6 +310,16 @@ impl RunAcc {
             laws: (0..laws).map(|_| LawAcc::new(contacts)).collect(),
             pairs: vec![PairAcc::default(); laws.saturating_sub(1)],
         }
+    }
+
+    /// Back to the state of [`Self::new`], keeping the histograms' tables,
+    /// so that a run reuses its batch accumulators instead of allocating
+    /// (and page-faulting in) fresh ones per batch.
+    pub fn clear(&mut self) {
+        for l in &mut self.laws {
+            l.clear();
+        }
+        self.pairs.fill(PairAcc::default());
     }
 
     pub fn flush(&mut self) {
@@ -1128,20 +1192,25 @@ const BATCHES_IN_FLIGHT_WITH_ROWS: u64 = 2;
 /// Receives per-sample rows in sample order.
 pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), String> + Send + 'a;
 
-/// Scratch spaces shared by the workers of a run: taken for a batch and
-/// given back, so a run allocates about one per thread.
-struct WorkPool<T, const N: usize> {
-    free: std::sync::Mutex<Vec<Work<T, N>>>,
-    laws: usize,
+/// Values shared by the workers of a run (scratch spaces, cleared batch
+/// accumulators): taken for a batch and given back, so a run allocates
+/// about as many as it uses at once, not one per batch.
+struct Pool<W> {
+    free: std::sync::Mutex<Vec<W>>,
 }
 
-impl<T: Real, const N: usize> WorkPool<T, N> {
-    fn take(&self) -> Work<T, N> {
-        let popped = self.free.lock().expect("work pool").pop();
-        popped.unwrap_or_else(|| Work::new(self.laws))
+impl<W> Pool<W> {
+    fn new() -> Self {
+        Self {
+            free: std::sync::Mutex::new(Vec::new()),
+        }
     }
-    fn give(&self, w: Work<T, N>) {
-        self.free.lock().expect("work pool").push(w);
+    fn take(&self, make: impl FnOnce() -> W) -> W {
+        let popped = self.free.lock().expect("pool").pop();
+        popped.unwrap_or_else(make)
+    }
+    fn give(&self, w: W) {
+        self.free.lock().expect("pool").push(w);
     }
 }
 
@@ -1188,13 +1257,12 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         sampler: &sampler,
         plan,
     };
-    let pool = WorkPool::<T, N> {
-        free: std::sync::Mutex::new(Vec::new()),
-        laws,
-    };
+    let pool = Pool::<Work<T, N>>::new();
+    // Holds cleared accumulators only.
+    let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
-        let mut work = pool.take();
-        let mut part = RunAcc::new(laws, N);
+        let mut work = pool.take(|| Work::new(laws));
+        let mut part = accs.take(|| RunAcc::new(laws, N));
         let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
         let lo = b * batch;
         let hi = (lo + batch).min(total);
@@ -1217,7 +1285,13 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         // batches' work (no serial merge step, no barrier), and the tree's
         // shape is fixed by the batch indices, so results are bit-identical
         // for any thread count.
-        fn subtree(node: Node, leaf: &(dyn Fn(u64) -> RunAcc + Sync)) -> RunAcc {
+        // A merged right half's accumulator is cleared and reused by a
+        // later batch.
+        fn subtree(
+            node: Node,
+            leaf: &(dyn Fn(u64) -> RunAcc + Sync),
+            accs: &Pool<RunAcc>,
+        ) -> RunAcc {
             if node.level == 0 {
                 return leaf(node.index);
             }
@@ -1225,17 +1299,22 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 level: node.level - 1,
                 index: i,
             };
-            let (mut left, right) = rayon::join(
-                || subtree(child(2 * node.index), leaf),
-                || subtree(child(2 * node.index + 1), leaf),
+            let (mut left, mut right) = rayon::join(
+                || subtree(child(2 * node.index), leaf, accs),
+                || subtree(child(2 * node.index + 1), leaf, accs),
             );
             left.merge(&right);
+            right.clear();
+            accs.give(right);
             left
         }
         let leaf = |b: u64| run_batch(b).0;
         let nodes = aligned_nodes(batch_range);
-        let accs: Vec<RunAcc> = nodes.par_iter().map(|&node| subtree(node, &leaf)).collect();
-        for (node, acc) in nodes.into_iter().zip(accs) {
+        let merged: Vec<RunAcc> = nodes
+            .par_iter()
+            .map(|&node| subtree(node, &leaf, &accs))
+            .collect();
+        for (node, acc) in nodes.into_iter().zip(merged) {
             tree.push_node(node, acc);
         }
         return Ok(tree.nodes);
@@ -1590,6 +1669,54 @@ pub fn evaluate_samples_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every accumulator field by path, as comparable text.
+    fn slots(acc: &mut RunAcc) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        acc.visit(&mut |path, slot| {
+            let value = match slot {
+                Slot::Count(c) => format!("count {c}"),
+                Slot::Moments(m) => format!("moments {:?}", m.state()),
+                Slot::Histogram(h) => format!("hist {:?}", h.entries()),
+            };
+            out.push((path.to_string(), value));
+        });
+        out
+    }
+
+    /// A run's accumulator, cleared for reuse, is a new one in every field
+    /// (and the run had filled fields of every kind).
+    #[test]
+    fn a_cleared_accumulator_is_a_new_one() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml");
+        let scene = crate::scene::load_scene(
+            std::path::Path::new(path),
+            &crate::scene::Overrides {
+                samples: Some(4096),
+                laws: Some(vec!["newton".into(), "poisson".into()]),
+                ..Default::default()
+            },
+        )
+        .expect("shipped scene");
+        let opts = RunOptions {
+            threads: 1,
+            keep: Keep::ALL,
+            ..Default::default()
+        };
+        let mut used = run(&scene, &opts).expect("run").acc;
+        let mut fresh = RunAcc::new(2, 3);
+        let (before, want) = (slots(&mut used), slots(&mut fresh));
+        assert_eq!(before.len(), want.len());
+        for kind in ["count", "moments", "hist"] {
+            let changed = before
+                .iter()
+                .zip(&want)
+                .any(|(b, w)| b.1.starts_with(kind) && b != w);
+            assert!(changed, "the run filled no {kind} field");
+        }
+        used.clear();
+        assert_eq!(slots(&mut used), want);
+    }
 
     /// The parallel recursion starts from the nodes the batch-by-batch
     /// tree stack ends with, for any batch range (so both build one tree).

@@ -398,6 +398,14 @@ impl LogHistogram {
         }
     }
 
+    /// Empties the histogram and keeps its tables (zeroed) for reuse: it
+    /// then counts, merges and reports exactly as a new one.
+    pub fn clear(&mut self) {
+        self.pos.fill(0);
+        self.neg.fill(0);
+        self.zero = 0;
+    }
+
     /// Adds `n` exact zeros.
     #[inline(always)]
     pub fn add_zeros(&mut self, n: u64) {
@@ -578,6 +586,11 @@ impl Stat {
     }
     pub fn flush(&mut self) {
         self.moments.flush();
+    }
+    /// Back to empty, keeping the histogram's tables ([`LogHistogram::clear`]).
+    pub fn clear(&mut self) {
+        self.moments = Moments::default();
+        self.hist.clear();
     }
     pub fn merge(&mut self, o: &Stat) {
         self.moments.merge(&o.moments);
