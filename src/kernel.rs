@@ -511,7 +511,7 @@ fn lcp_block<T: Real, const N: usize, const ROT: bool>(
     ok: &mut [bool; BLOCK],
 ) {
     let mut certain = [false; BLOCK];
-    each_lane::<T, N, ROT>(c, geo, q, lam, &mut certain, |g, q| full_support(c, g, q));
+    each_lane::<T, N, ROT, true>(c, geo, q, lam, &mut certain);
     // A certified candidate meets the conditions.
     *ok = [true; BLOCK];
     // The other lanes, compacted (branch-free) and enumerated in chunks of
@@ -572,23 +572,29 @@ fn lcp_lanes<T: Real, const N: usize, const ROT: bool>(
     lam: &mut [[T; BLOCK]; N],
     ok: &mut [bool; BLOCK],
 ) {
-    each_lane::<T, N, ROT>(c, geo, q, lam, ok, |g, q| lcp_lane(c, g, q));
+    each_lane::<T, N, ROT, false>(c, geo, q, lam, ok);
 }
 
-/// `solve(G, q)` of every lane of a block into `lam` and `flag`.
+/// [`full_support`] (`CERTIFY`) or [`lcp_lane`] of every lane of a block
+/// into `lam` and `flag`. The solver is chosen by a constant, not passed as
+/// a closure: LLVM left such a closure out of line, compiled for baseline
+/// x86-64 whatever the caller's target, and called it once per lane.
 #[inline(always)]
-fn each_lane<T: Real, const N: usize, const ROT: bool>(
+fn each_lane<T: Real, const N: usize, const ROT: bool, const CERTIFY: bool>(
     c: &Consts<T, N>,
     geo: &Geometry<T, N>,
     q: &[[T; BLOCK]; N],
     lam: &mut [[T; BLOCK]; N],
     flag: &mut [bool; BLOCK],
-    solve: impl Fn(&[[T; N]; N], &[T; N]) -> ([T; N], bool),
 ) {
     for s in 0..BLOCK {
         let g = lane_g::<T, N, ROT>(c, geo, s);
         let qs: [T; N] = std::array::from_fn(|i| q[i][s]);
-        let (l, f) = solve(&g, &qs);
+        let (l, f) = if CERTIFY {
+            full_support(c, &g, &qs)
+        } else {
+            lcp_lane(c, &g, &qs)
+        };
         for i in 0..N {
             lam[i][s] = l[i];
         }
