@@ -915,13 +915,19 @@ fn block_stats<T: Real, const N: usize>(
             impacts += (d.impacting[s] > T::ZERO) as u32;
         }
         la.impacts += impacts as u64;
+        // Samples per active set in one pass: each counted lane adds 1 to
+        // its set's byte of a 64-bit word (fewer than 256 lanes per block,
+        // so no byte carries into the next, whatever the partial sums).
+        const { assert!(BLOCK < 256) };
+        let mut per_set = 0u64;
+        for s in 0..BLOCK {
+            let on = (d.mask_valid[s] > T::ZERO) as u64;
+            per_set += on << (8 * (d.active[s] & 7));
+        }
         for m in 0..la.active_sets.len() {
-            let mut c = 0u32;
-            for s in 0..BLOCK {
-                c += ((d.active[s] == m as u32) & (d.mask_valid[s] > T::ZERO)) as u32;
-            }
-            la.active_sets[m] += c as u64;
-            la.groups[m].samples += c as u64;
+            let c = (per_set >> (8 * m)) & 0xff;
+            la.active_sets[m] += c;
+            la.groups[m].samples += c;
         }
         // Moments of the statistics weighted by `impacting`, fused into
         // passes of up to three statistics.
