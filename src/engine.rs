@@ -219,57 +219,39 @@ impl LawAcc {
         }
     }
 
-    /// Back to the state of `new`, keeping the histograms' tables. Every
-    /// field is named, so a new field cannot be forgotten here.
+    /// Back to the state of `new`, keeping the histograms' tables (the
+    /// engine tests check every field through [`RunAcc::visit`]).
     fn clear(&mut self) {
-        let Self {
-            samples,
-            impacts,
-            energy_gain,
-            degenerate,
-            jammed,
-            unsolved,
-            recomputed,
-            penetrating,
-            active_sets,
-            energy_ratio,
-            omega_after_norm,
-            velocity_after_norm,
-            impulse,
-            rebound,
-            groups,
-        } = self;
         for c in [
-            samples,
-            impacts,
-            energy_gain,
-            degenerate,
-            jammed,
-            unsolved,
-            recomputed,
-            penetrating,
+            &mut self.samples,
+            &mut self.impacts,
+            &mut self.energy_gain,
+            &mut self.degenerate,
+            &mut self.jammed,
+            &mut self.unsolved,
+            &mut self.recomputed,
+            &mut self.penetrating,
         ] {
             *c = 0;
         }
-        active_sets.fill(0);
-        for s in [energy_ratio, omega_after_norm, velocity_after_norm] {
+        self.active_sets.fill(0);
+        let headline = [
+            &mut self.energy_ratio,
+            &mut self.omega_after_norm,
+            &mut self.velocity_after_norm,
+        ];
+        for s in headline
+            .into_iter()
+            .chain(&mut self.impulse)
+            .chain(&mut self.rebound)
+        {
             s.clear();
         }
-        for s in impulse.iter_mut().chain(rebound.iter_mut()) {
-            s.clear();
-        }
-        for g in groups {
-            let GroupAcc {
-                samples,
-                impacts,
-                energy_ratio,
-                omega_after_norm,
-                velocity_after_norm,
-            } = g;
-            (*samples, *impacts) = (0, 0);
-            for s in [energy_ratio, omega_after_norm, velocity_after_norm] {
-                s.clear();
-            }
+        for g in &mut self.groups {
+            (g.samples, g.impacts) = (0, 0);
+            g.energy_ratio.clear();
+            g.omega_after_norm.clear();
+            g.velocity_after_norm.clear();
         }
     }
 
