@@ -89,7 +89,7 @@ pub struct RawStatistics {
     /// Statistics whose quantiles (p01, median, p99) and histograms are
     /// kept: any of `energy_ratio`, `omega_after_norm`,
     /// `velocity_after_norm`, `impulse`, `rebound` (per plane). Default:
-    /// the first three.
+    /// `energy_ratio` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub quantiles: Option<Vec<String>>,
     /// Moments and histograms of the post-impact statistics per active

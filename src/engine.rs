@@ -20,7 +20,7 @@ use crate::kernel::{
 };
 use crate::lanes::{select, Real};
 use crate::physics::Law;
-use crate::sampler::{Inputs, Sampler, BLOCK};
+use crate::sampler::{Inputs, Sampler, ALL_ROWS, BLOCK};
 use crate::scene::{Precision, Scene};
 use crate::stats::{scatter, LogHistogram, Moments, Stat, BINS};
 
@@ -432,8 +432,6 @@ struct Derived<T, const N: usize> {
     rebound: [[T; BLOCK]; N],
     approaching: [[T; BLOCK]; N],
     active: [u32; BLOCK],
-    /// 1 for lanes that count (in the block and not penetrating).
-    mask_valid: [T; BLOCK],
     mask: [T; BLOCK],
 }
 
@@ -448,7 +446,6 @@ impl<T: Real, const N: usize> Derived<T, N> {
             rebound: [[T::ZERO; BLOCK]; N],
             approaching: [[T::ZERO; BLOCK]; N],
             active: [0; BLOCK],
-            mask_valid: [T::ZERO; BLOCK],
             mask: [T::ZERO; BLOCK],
         })
     }
@@ -512,6 +509,8 @@ impl StatsPlan {
 /// its weight is 0), so masked sums are plain arithmetic. Everything stays
 /// in the kernel's precision (the values are no more accurate than that);
 /// the accumulators combine blocks in f64.
+///
+/// Returns the block's counts, taken in the same pass over the statuses.
 #[inline(always)]
 fn derive<T: Real, const N: usize>(
     geo: &Geometry<T, N>,
@@ -519,46 +518,76 @@ fn derive<T: Real, const N: usize>(
     count: usize,
     plan: StatsPlan,
     d: &mut Derived<T, N>,
-) {
+) -> BlockCounts {
     let approach_mask = (1u32 << N) - 1;
     let w01 = |c: bool| select(c, T::ONE, T::ZERO);
-    // Separate simple loops with non-short-circuit logic: each one
-    // vectorises on its own.
+    let mut n = BlockCounts::default();
+    // |ω⁺| per lane, unless it is the same in every sample.
+    let omega_per_lane = plan.constant_spin.is_none();
+    // One loop with non-short-circuit logic, so that it vectorises: the
+    // divisions and square roots overlap the rest (in separate loops each
+    // waited on the divider: S1 about 2 % slower). Counts are
+    // compare-and-sum reductions in lanes (a scatter into one counter per
+    // set would chain every sample through memory).
+    const { assert!(BLOCK < 256) };
     for s in 0..BLOCK {
         let st = out.status[s];
-        let valid = (s < count) & (st & PENETRATING == 0);
+        let in_batch = s < count;
+        let valid = in_batch & (st & PENETRATING == 0);
         let approaching = st & approach_mask;
-        d.impacting[s] = w01(valid & (approaching != 0));
-        d.mask_valid[s] = w01(valid);
-        d.active[s] = (st >> ACTIVE_SHIFT) & approach_mask;
-        for i in 0..N {
-            d.approaching[i][s] = w01(valid & (approaching & (1 << i) != 0));
+        let impacting = valid & (approaching != 0);
+        let active = (st >> ACTIVE_SHIFT) & approach_mask;
+        d.impacting[s] = w01(impacting);
+        d.active[s] = active;
+        for k in 0..BlockCounts::FLAGS.len() {
+            n.flags[k] += (in_batch & (st & BlockCounts::FLAGS[k] != 0)) as u32;
         }
-    }
-    for s in 0..BLOCK {
+        n.impacts += impacting as u32;
+        // Samples per active set: each valid lane adds 1 to its set's byte
+        // of a 64-bit word (fewer than 256 lanes per block, so no byte
+        // carries into the next, whatever the partial sums).
+        n.per_set += (valid as u64) << (8 * (active & 7));
         let ratio = out.t_after[s] / geo.t_before[s];
-        d.ratio[s] = select(d.impacting[s] > T::ZERO, ratio, T::ZERO);
-    }
-    if plan.constant_spin.is_none() {
-        for s in 0..BLOCK {
+        d.ratio[s] = select(impacting, ratio, T::ZERO);
+        if omega_per_lane {
             let (a, b, c) = (out.w_after[0][s], out.w_after[1][s], out.w_after[2][s]);
             let w = (a * a + b * b + c * c).sqrt();
-            d.omega[s] = select(d.impacting[s] > T::ZERO, w, T::ZERO);
+            d.omega[s] = select(impacting, w, T::ZERO);
         }
-    }
-    for s in 0..BLOCK {
         let (a, b, c) = (out.v_after[0][s], out.v_after[1][s], out.v_after[2][s]);
         let v = (a * a + b * b + c * c).sqrt();
-        d.speed[s] = select(d.impacting[s] > T::ZERO, v, T::ZERO);
-    }
-    for i in 0..N {
-        for s in 0..BLOCK {
-            let on = d.impacting[s] > T::ZERO;
-            d.lambda[i][s] = select(on, out.lambda[i][s], T::ZERO);
+        d.speed[s] = select(impacting, v, T::ZERO);
+        for i in 0..N {
+            let toward = valid & (approaching & (1 << i) != 0);
+            d.approaching[i][s] = w01(toward);
+            d.lambda[i][s] = select(impacting, out.lambda[i][s], T::ZERO);
             let r = -out.vn_after[i][s] / geo.vn[i][s];
-            d.rebound[i][s] = select(d.approaching[i][s] > T::ZERO, r, T::ZERO);
+            d.rebound[i][s] = select(toward, r, T::ZERO);
         }
     }
+    n
+}
+
+/// A law's counts over one block (from [`derive`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct BlockCounts {
+    /// Samples of the batch with each of [`Self::FLAGS`].
+    flags: [u32; 6],
+    /// Samples with at least one approaching contact (and not penetrating).
+    impacts: u32,
+    /// Valid samples per active set: set m's count in byte m.
+    per_set: u64,
+}
+
+impl BlockCounts {
+    const FLAGS: [u32; 6] = [
+        ENERGY_GAIN,
+        DEGENERATE,
+        JAMMED,
+        UNSOLVED,
+        RECOMPUTED,
+        PENETRATING,
+    ];
 }
 
 /// The vectorised part of a block: draws, geometry, impulses and post
@@ -579,7 +608,8 @@ fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
 ) {
     crate::lanes::align_frame();
     sampler.fill(first, inputs);
-    geometry::<T, N, ROT>(consts, inputs, geo);
+    let newton_only = CPL && laws.iter().all(|l| matches!(l, Law::Newton));
+    geometry::<T, N, ROT>(consts, inputs, geo, !newton_only);
     for (law, out) in laws.iter().zip(outs.iter_mut()) {
         impulses::<T, N, ROT, CPL>(consts, *law, geo, out);
         post::<T, N, ROT>(consts, inputs, geo, out);
@@ -743,7 +773,7 @@ pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     out: &mut LawOut<T, N>,
 ) {
     crate::lanes::align_frame();
-    geometry::<T, N, ROT>(consts, inputs, geo);
+    geometry::<T, N, ROT>(consts, inputs, geo, !(CPL && matches!(law, Law::Newton)));
     impulses::<T, N, ROT, CPL>(consts, law, geo, out);
     post::<T, N, ROT>(consts, inputs, geo, out);
 }
@@ -793,7 +823,7 @@ fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         &mut work.geo,
         &mut work.outs,
     );
-    fallback(scene, laws, work, count);
+    fallback(scene, sampler, laws, first, work, count);
     block_stats(
         &work.geo,
         &work.outs,
@@ -814,13 +844,39 @@ fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
 /// flagged lanes are solved again by the f64 reference.
 fn fallback<T: Real, const N: usize>(
     scene: &Scene,
+    sampler: &Sampler,
     laws: &[Law],
+    first: u64,
     work: &mut Work<T, N>,
     count: usize,
 ) {
     let extra_planes = scene.planes().len() > N;
     if extra_planes {
         check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    }
+    if sampler.partial_rows() {
+        // The reference reads the whole orientation of a flagged lane: its
+        // unwritten rows, as the full fill would have written them.
+        let mut flagged = 0u32;
+        for out in work.outs.iter() {
+            for st in &out.status[..count] {
+                flagged |= st & crate::kernel::RECOMPUTE;
+            }
+        }
+        if flagged != 0 {
+            for s in 0..count {
+                if work
+                    .outs
+                    .iter()
+                    .any(|o| o.status[s] & crate::kernel::RECOMPUTE != 0)
+                {
+                    let a = sampler.orientation_of::<T>(first + s as u64);
+                    for (k, ak) in a.into_iter().enumerate() {
+                        work.inputs.a[k][s] = ak;
+                    }
+                }
+            }
+        }
     }
     for (law, out) in laws.iter().zip(work.outs.iter_mut()) {
         if extra_planes {
@@ -866,21 +922,9 @@ fn block_stats<T: Real, const N: usize>(
     for li in 0..outs.len() {
         let la = &mut acc.laws[li];
         let out = &outs[li];
-        // Flag counts in u32 lanes (vectorised), added to the u64 totals.
-        let flags = [
-            ENERGY_GAIN,
-            DEGENERATE,
-            JAMMED,
-            UNSOLVED,
-            RECOMPUTED,
-            PENETRATING,
-        ];
-        let mut c = [0u32; 6];
-        for &st in &out.status[..count] {
-            for k in 0..6 {
-                c[k] += (st & flags[k] != 0) as u32;
-            }
-        }
+        let n = derive(geo, out, count, plan, derived);
+        let d = &mut **derived;
+        let c = n.flags;
         la.samples += count as u64;
         la.energy_gain += c[0] as u64;
         la.degenerate += c[1] as u64;
@@ -888,26 +932,10 @@ fn block_stats<T: Real, const N: usize>(
         la.unsolved += c[3] as u64;
         la.recomputed += c[4] as u64;
         la.penetrating += c[5] as u64;
-        derive(geo, out, count, plan, derived);
-        let d = &mut **derived;
-        // Counts as vectorised compare-and-sum passes (a scatter into one
-        // counter per set would chain every sample through memory).
-        let mut impacts = 0u32;
-        for s in 0..BLOCK {
-            impacts += (d.impacting[s] > T::ZERO) as u32;
-        }
+        let impacts = n.impacts;
         la.impacts += impacts as u64;
-        // Samples per active set in one pass: each counted lane adds 1 to
-        // its set's byte of a 64-bit word (fewer than 256 lanes per block,
-        // so no byte carries into the next, whatever the partial sums).
-        const { assert!(BLOCK < 256) };
-        let mut per_set = 0u64;
-        for s in 0..BLOCK {
-            let on = (d.mask_valid[s] > T::ZERO) as u64;
-            per_set += on << (8 * (d.active[s] & 7));
-        }
         for m in 0..la.active_sets.len() {
-            let c = (per_set >> (8 * m)) & 0xff;
+            let c = (n.per_set >> (8 * m)) & 0xff;
             la.active_sets[m] += c;
             la.groups[m].samples += c;
         }
@@ -1229,8 +1257,17 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     mut sink: Option<&mut SampleSink>,
 ) -> Result<Vec<(Node, RunAcc)>, String> {
     let consts = Consts::<T, N>::new(scene);
-    // Orientations feed the rotational terms and the per-sample rows only.
-    let sampler = Sampler::new(scene).with_orientation(ROT || sink.is_some());
+    // Orientations feed the rotational terms and the per-sample rows only,
+    // and the kernel reads only the rows of A its planes need; per-sample
+    // rows and planes outside the placement read the whole matrix.
+    let whole = sink.is_some() || scene.planes().len() > N;
+    let sampler = Sampler::new(scene)
+        .with_orientation(ROT || sink.is_some())
+        .with_matrix_rows(if whole {
+            ALL_ROWS
+        } else {
+            consts.matrix_rows()
+        });
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
@@ -1606,7 +1643,7 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             &mut work.geo,
             &mut work.outs,
         );
-        fallback(scene, &[law], &mut work, n);
+        fallback(scene, &sampler, &[law], start, &mut work, n);
         let o = &work.outs[0];
         let x = &work.inputs;
         for s in 0..n {

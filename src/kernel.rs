@@ -66,9 +66,21 @@ pub struct Consts<T, const N: usize> {
     graze: T,
     accept: T,
     feasible: T,
+    /// When every touching plane's normal is ±e_k (exactly): k per plane.
+    /// Then Aᵀn is ± row k of A and n·v is ±v_k, with no arithmetic.
+    axes: Option<[usize; N]>,
 }
 
 impl<T: Real, const N: usize> Consts<T, N> {
+    /// The rows of A the geometry passes read (bit r: row r): one per plane
+    /// along an axis, else all.
+    pub fn matrix_rows(&self) -> u8 {
+        match self.axes {
+            Some(rows) => rows.iter().fold(0, |m, &k| m | 1 << k),
+            None => crate::sampler::ALL_ROWS,
+        }
+    }
+
     pub fn new(scene: &Scene) -> Self {
         assert_eq!(scene.touching().len(), N, "kernel width");
         let f32_lanes = T::EPSILON.to_f64() > 1e-10;
@@ -112,6 +124,17 @@ impl<T: Real, const N: usize> Consts<T, N> {
             } else {
                 crate::physics::FEASIBILITY_RELATIVE
             }),
+            axes: {
+                let axis = |n: [f64; 3]| {
+                    let k = n.iter().position(|x| x.abs() == 1.0)?;
+                    (n.iter().filter(|&&x| x == 0.0).count() == 2).then_some(k)
+                };
+                let ks: Vec<usize> = planes
+                    .iter()
+                    .filter_map(|p| axis(p.normal().to_array()))
+                    .collect();
+                (ks.len() == N).then(|| std::array::from_fn(|i| ks[i]))
+            },
         }
     }
 }
@@ -194,8 +217,46 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     c: &Consts<T, N>,
     x: &Inputs<T>,
     out: &mut Geometry<T, N>,
+    conditioning: bool,
 ) {
     let det_ok0 = well_conditioned(&c.g0, c.det_min);
+    // Planes along the axes (every shipped scene) read rows of A and
+    // components of v instead of multiplying by the normals' zeros and
+    // ones: the same values (S3 f32 about 3.5 % faster end to end, S1
+    // about 2.5 %; Zen 4, 2026-11-24).
+    if ROT {
+        // The lever arms, G and its conditioning in a pass of their own:
+        // the chain from A through the support point's square root and
+        // division to ρ is long, and in one loop with the rest the CPU
+        // overlapped too little of it across iterations (S3 about 2–4 %
+        // faster split). G's multiply-adds stay with the square roots and
+        // divisions, which they overlap (S3 about 1.5 % faster than G in
+        // the second pass).
+        // G's conditioning test unless the caller's laws take it from the
+        // determinant they compute anyway (Newton's LCP: S3 about 2 %).
+        match (c.axes, conditioning) {
+            (Some(rows), true) => lever_arms::<T, N, true, true>(c, rows, x, out),
+            (Some(rows), false) => lever_arms::<T, N, true, false>(c, rows, x, out),
+            (None, true) => lever_arms::<T, N, false, true>(c, [0; N], x, out),
+            (None, false) => lever_arms::<T, N, false, false>(c, [0; N], x, out),
+        }
+    }
+    match c.axes {
+        Some(rows) => normal_velocities::<T, N, ROT, true>(c, rows, det_ok0, x, out),
+        None => normal_velocities::<T, N, ROT, false>(c, [0; N], det_ok0, x, out),
+    }
+}
+
+/// Normal velocities, grazing and approach bits and T⁻ of every lane (the
+/// second geometry pass). `AXES` as in [`lever_arms`].
+#[inline(always)]
+fn normal_velocities<T: Real, const N: usize, const ROT: bool, const AXES: bool>(
+    c: &Consts<T, N>,
+    rows: [usize; N],
+    det_ok0: bool,
+    x: &Inputs<T>,
+    out: &mut Geometry<T, N>,
+) {
     for s in 0..BLOCK {
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
@@ -208,65 +269,25 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
         } else {
             T::ZERO
         };
-        let mut rho = [[T::ZERO; 3]; N];
-        let mut status = 0u32;
-        if ROT {
-            let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
-            // u = Aᵀ n (the normal in the body frame) and h = √(uᵀ diag(a², b², c²) u).
-            let u: [[T; 3]; N] = std::array::from_fn(|i| {
-                std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], c.normal[i]))
-            });
-            let h: [T; N] = std::array::from_fn(|i| {
-                dot3(
-                    [
-                        c.semi2[0] * u[i][0],
-                        c.semi2[1] * u[i][1],
-                        c.semi2[2] * u[i][2],
-                    ],
-                    u[i],
-                )
-                .sqrt()
-            });
-            let minus_inv_h: [T; N] = std::array::from_fn(|i| -T::ONE / h[i]);
-            for i in 0..N {
-                rho[i] = [
-                    c.dsq[0] * u[i][1] * u[i][2] * minus_inv_h[i],
-                    c.dsq[1] * u[i][2] * u[i][0] * minus_inv_h[i],
-                    c.dsq[2] * u[i][0] * u[i][1] * minus_inv_h[i],
-                ];
-            }
-        }
+        // With rotation, the first pass left the conditioning test's bit.
+        let mut status = if ROT {
+            out.status[s]
+        } else {
+            bit(!det_ok0, RECOMPUTE)
+        };
         for i in 0..N {
-            let n = c.normal[i];
-            let mut vn = dot3(n, v);
+            let mut vn = if AXES {
+                c.normal[i][rows[i]] * x.v[rows[i]][s]
+            } else {
+                dot3(c.normal[i], v)
+            };
             if ROT {
-                vn = rho[i][2].mul_add(w[2], rho[i][1].mul_add(w[1], rho[i][0].mul_add(w[0], vn)));
-                for k in 0..3 {
-                    out.rho[i][k][s] = rho[i][k];
-                }
+                let rho = [out.rho[i][0][s], out.rho[i][1][s], out.rho[i][2][s]];
+                vn = rho[2].mul_add(w[2], rho[1].mul_add(w[1], rho[0].mul_add(w[0], vn)));
             }
             out.vn[i][s] = vn;
             status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
             status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
-        }
-        if ROT {
-            // G is symmetric: the upper triangle is computed and stored,
-            // and mirrored here (`g_at` reads the stored half).
-            let mut g = [[T::ZERO; N]; N];
-            for i in 0..N {
-                for j in i..N {
-                    let mut gij = c.nn[i][j] * c.inv_mass;
-                    for k in 0..3 {
-                        gij = (rho[i][k] * rho[j][k]).mul_add(c.inv_inertia[k], gij);
-                    }
-                    g[i][j] = gij;
-                    g[j][i] = g[i][j];
-                    out.g[i][j][s] = g[i][j];
-                }
-            }
-            status |= bit(!well_conditioned(&g, c.det_min), RECOMPUTE);
-        } else {
-            status |= bit(!det_ok0, RECOMPUTE);
         }
         out.t_before[s] = T::HALF
             * c.mass.mul_add(
@@ -284,6 +305,67 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     }
 }
 
+/// The lever arms, G and its conditioning bit of every lane (the first
+/// geometry pass). `AXES`: the touching normals are ±e_k, k = `rows[i]`.
+#[inline(always)]
+fn lever_arms<T: Real, const N: usize, const AXES: bool, const CONDITIONING: bool>(
+    c: &Consts<T, N>,
+    rows: [usize; N],
+    x: &Inputs<T>,
+    out: &mut Geometry<T, N>,
+) {
+    for s in 0..BLOCK {
+        // u = Aᵀ n (the normal in the body frame) and h = √(uᵀ diag(a², b², c²) u).
+        let u: [[T; 3]; N] = if AXES {
+            // ± row k of A: the sign drops out of h, ρ and G (all even in u).
+            std::array::from_fn(|i| std::array::from_fn(|col| x.a[3 * rows[i] + col][s]))
+        } else {
+            let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+            std::array::from_fn(|i| {
+                std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], c.normal[i]))
+            })
+        };
+        let h: [T; N] = std::array::from_fn(|i| {
+            dot3(
+                [
+                    c.semi2[0] * u[i][0],
+                    c.semi2[1] * u[i][1],
+                    c.semi2[2] * u[i][2],
+                ],
+                u[i],
+            )
+            .sqrt()
+        });
+        let minus_inv_h: [T; N] = std::array::from_fn(|i| -T::ONE / h[i]);
+        let mut rho = [[T::ZERO; 3]; N];
+        for i in 0..N {
+            rho[i] = [
+                c.dsq[0] * u[i][1] * u[i][2] * minus_inv_h[i],
+                c.dsq[1] * u[i][2] * u[i][0] * minus_inv_h[i],
+                c.dsq[2] * u[i][0] * u[i][1] * minus_inv_h[i],
+            ];
+            for k in 0..3 {
+                out.rho[i][k][s] = rho[i][k];
+            }
+        }
+        // G is symmetric: the upper triangle is computed and
+        // stored (`g_at` reads the stored half).
+        let mut g = [[T::ZERO; N]; N];
+        for i in 0..N {
+            for j in i..N {
+                let mut gij = c.nn[i][j] * c.inv_mass;
+                for k in 0..3 {
+                    gij = (rho[i][k] * rho[j][k]).mul_add(c.inv_inertia[k], gij);
+                }
+                g[i][j] = gij;
+                g[j][i] = g[i][j];
+                out.g[i][j][s] = g[i][j];
+            }
+        }
+        out.status[s] = bit(CONDITIONING && !well_conditioned(&g, c.det_min), RECOMPUTE);
+    }
+}
+
 /// `a · b` with fused steps.
 #[inline(always)]
 fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
@@ -295,15 +377,25 @@ fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
 /// False for NaN.
 #[inline(always)]
 fn well_conditioned<T: Real, const N: usize>(g: &[[T; N]; N], det_min: T) -> bool {
+    let det = match N {
+        1 => g[0][0],
+        2 => g[0][0] * g[1][1] - g[0][1] * g[0][1],
+        _ => {
+            g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1])
+                - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0])
+                + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0])
+        }
+    };
+    conditioned_with(g, det, det_min)
+}
+
+/// [`well_conditioned`]'s test given det G.
+#[inline(always)]
+fn conditioned_with<T: Real, const N: usize>(g: &[[T; N]; N], det: T, det_min: T) -> bool {
     match N {
         1 => true,
-        2 => g[0][0] * g[1][1] - g[0][1] * g[0][1] >= det_min * (g[0][0] * g[1][1]),
-        _ => {
-            let det = g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1])
-                - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0])
-                + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
-            det >= det_min * (g[0][0] * g[1][1] * g[2][2])
-        }
+        2 => det >= det_min * (g[0][0] * g[1][1]),
+        _ => det >= det_min * (g[0][0] * g[1][1] * g[2][2]),
     }
 }
 
@@ -333,26 +425,33 @@ fn solve_subset<T: Real, const N: usize, const MASK: usize>(g: &[[T; N]; N], q: 
             lam[j] = (-q[j] * g[i][i] + q[i] * g[i][j]) * inv;
         }
         _ => {
-            // Cramer with the symmetric cofactors of the full 3×3.
-            let c00 = g[1][1] * g[2][2] - g[1][2] * g[1][2];
-            let c01 = g[0][2] * g[1][2] - g[0][1] * g[2][2];
-            let c02 = g[0][1] * g[1][2] - g[0][2] * g[1][1];
-            let c11 = g[0][0] * g[2][2] - g[0][2] * g[0][2];
-            let c12 = g[0][1] * g[0][2] - g[0][0] * g[1][2];
-            let c22 = g[0][0] * g[1][1] - g[0][1] * g[0][1];
-            let det = g[0][0] * c00 + g[0][1] * c01 + g[0][2] * c02;
-            let inv = -T::ONE / det;
-            let r = [
-                (c00 * q[0] + c01 * q[1] + c02 * q[2]) * inv,
-                (c01 * q[0] + c11 * q[1] + c12 * q[2]) * inv,
-                (c02 * q[0] + c12 * q[1] + c22 * q[2]) * inv,
-            ];
+            let (r, _) = cramer3(g, q);
             for i in 0..N {
                 lam[i] = r[i];
             }
         }
     }
     lam
+}
+
+/// `G λ = −q` for the full 3×3 by Cramer's rule with the symmetric
+/// cofactors, and det G (the cofactor expansion along the first row).
+#[inline(always)]
+fn cramer3<T: Real, const N: usize>(g: &[[T; N]; N], q: &[T; N]) -> ([T; 3], T) {
+    let c00 = g[1][1] * g[2][2] - g[1][2] * g[1][2];
+    let c01 = g[0][2] * g[1][2] - g[0][1] * g[2][2];
+    let c02 = g[0][1] * g[1][2] - g[0][2] * g[1][1];
+    let c11 = g[0][0] * g[2][2] - g[0][2] * g[0][2];
+    let c12 = g[0][1] * g[0][2] - g[0][0] * g[1][2];
+    let c22 = g[0][0] * g[1][1] - g[0][1] * g[0][1];
+    let det = g[0][0] * c00 + g[0][1] * c01 + g[0][2] * c02;
+    let inv = -T::ONE / det;
+    let r = [
+        (c00 * q[0] + c01 * q[1] + c02 * q[2]) * inv,
+        (c01 * q[0] + c11 * q[1] + c12 * q[2]) * inv,
+        (c02 * q[0] + c12 * q[1] + c22 * q[2]) * inv,
+    ];
+    (r, det)
 }
 
 /// Largest violation of `λ ≥ 0` (as `−λ_i G_ii`) on the support and of
@@ -462,11 +561,16 @@ fn full_support<T: Real, const N: usize>(
     c: &Consts<T, N>,
     g: &[[T; N]; N],
     q: &[T; N],
-) -> ([T; N], bool) {
-    let lam = match N {
-        1 => solve_subset::<T, N, 1>(g, q),
-        2 => solve_subset::<T, N, 3>(g, q),
-        _ => solve_subset::<T, N, 7>(g, q),
+) -> ([T; N], bool, bool) {
+    // The full support's candidate, as `solve_subset` computes it, and
+    // with three contacts the determinant Cramer's rule already took.
+    let (lam, det3) = match N {
+        1 => (solve_subset::<T, N, 1>(g, q), T::ZERO),
+        2 => (solve_subset::<T, N, 3>(g, q), T::ZERO),
+        _ => {
+            let (r, det) = cramer3(g, q);
+            (std::array::from_fn(|i| r[i]), det)
+        }
     };
     let mut scale = T::ZERO;
     let mut viol0 = T::ZERO;
@@ -481,19 +585,20 @@ fn full_support<T: Real, const N: usize>(
     let (det, bound) = match N {
         1 => (g[0][0], T::ONE),
         2 => (g[0][0] * g[1][1] - g[0][1] * g[0][1], trace),
-        _ => (
-            g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[1][2])
-                - g[0][1] * (g[0][1] * g[2][2] - g[1][2] * g[0][2])
-                + g[0][2] * (g[0][1] * g[1][2] - g[1][1] * g[0][2]),
-            trace * trace,
-        ),
+        _ => (det3, trace * trace),
     };
     let margin = T::from_f64(8.0) * c.accept * scale * bound;
     // The empty support comes first in the enumeration and wins whenever
     // its violation is acceptable (no contact approaching): λ = 0.
     let empty = viol0 <= c.accept * scale;
     let lam = lam.map(|l| select(empty, T::ZERO, l));
-    (lam, empty | ((least > T::ZERO) & (least * det > margin)))
+    // `well_conditioned(g)` from the same determinant: its expansion is
+    // Cramer's term for term (g symmetric), so the same bit.
+    (
+        lam,
+        empty | ((least > T::ZERO) & (least * det > margin)),
+        conditioned_with(g, det, c.det_min),
+    )
 }
 
 /// [`lcp_lane`] for every lane of a block, with `q` by lane: the empty or
@@ -509,9 +614,10 @@ fn lcp_block<T: Real, const N: usize, const ROT: bool>(
     q: &[[T; BLOCK]; N],
     lam: &mut [[T; BLOCK]; N],
     ok: &mut [bool; BLOCK],
+    conditioned: &mut [bool; BLOCK],
 ) {
     let mut certain = [false; BLOCK];
-    each_lane::<T, N, ROT, true>(c, geo, q, lam, &mut certain);
+    each_lane::<T, N, ROT, true>(c, geo, q, lam, &mut certain, conditioned);
     // A certified candidate meets the conditions.
     *ok = [true; BLOCK];
     // The other lanes, compacted (branch-free) and enumerated in chunks of
@@ -525,7 +631,7 @@ fn lcp_block<T: Real, const N: usize, const ROT: bool>(
     if m > BLOCK / 4 {
         // Many uncertain lanes (a scene whose contacts seldom all engage):
         // gathering would cost more than enumerating every lane in place.
-        lcp_lanes::<T, N, ROT>(c, geo, q, lam, ok);
+        lcp_lanes::<T, N, ROT>(c, geo, q, lam, ok, conditioned);
         return;
     }
     for start in (0..m).step_by(16) {
@@ -571,14 +677,16 @@ fn lcp_lanes<T: Real, const N: usize, const ROT: bool>(
     q: &[[T; BLOCK]; N],
     lam: &mut [[T; BLOCK]; N],
     ok: &mut [bool; BLOCK],
+    conditioned: &mut [bool; BLOCK],
 ) {
-    each_lane::<T, N, ROT, false>(c, geo, q, lam, ok);
+    each_lane::<T, N, ROT, false>(c, geo, q, lam, ok, conditioned);
 }
 
 /// [`full_support`] (`CERTIFY`) or [`lcp_lane`] of every lane of a block
-/// into `lam` and `flag`. The solver is chosen by a constant, not passed as
-/// a closure: LLVM left such a closure out of line, compiled for baseline
-/// x86-64 whatever the caller's target, and called it once per lane.
+/// into `lam` and `flag`, and whether G is well conditioned. The solver is
+/// chosen by a constant, not passed as a closure: LLVM left such a closure
+/// out of line, compiled for baseline x86-64 whatever the caller's target,
+/// and called it once per lane.
 #[inline(always)]
 fn each_lane<T: Real, const N: usize, const ROT: bool, const CERTIFY: bool>(
     c: &Consts<T, N>,
@@ -586,19 +694,22 @@ fn each_lane<T: Real, const N: usize, const ROT: bool, const CERTIFY: bool>(
     q: &[[T; BLOCK]; N],
     lam: &mut [[T; BLOCK]; N],
     flag: &mut [bool; BLOCK],
+    conditioned: &mut [bool; BLOCK],
 ) {
     for s in 0..BLOCK {
         let g = lane_g::<T, N, ROT>(c, geo, s);
         let qs: [T; N] = std::array::from_fn(|i| q[i][s]);
-        let (l, f) = if CERTIFY {
+        let (l, f, w) = if CERTIFY {
             full_support(c, &g, &qs)
         } else {
-            lcp_lane(c, &g, &qs)
+            let (l, f) = lcp_lane(c, &g, &qs);
+            (l, f, well_conditioned(&g, c.det_min))
         };
         for i in 0..N {
             lam[i][s] = l[i];
         }
         flag[s] = f;
+        conditioned[s] = w;
     }
 }
 
@@ -641,7 +752,9 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             }
         }
         Law::Newton => {
-            let mut q = [[T::ZERO; BLOCK]; N];
+            // q in `vn_after`, which `post` then overwrites: a local array
+            // cost a memset per block (LLVM zeroes it before the loop).
+            let q = &mut out.vn_after;
             for i in 0..N {
                 for s in 0..BLOCK {
                     let vn = geo.vn[i][s];
@@ -649,16 +762,27 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 }
             }
             let mut ok = [true; BLOCK];
-            lcp_block::<T, N, ROT>(c, geo, &q, &mut out.lambda, &mut ok);
+            let mut conditioned = [true; BLOCK];
+            lcp_block::<T, N, ROT>(
+                c,
+                geo,
+                &out.vn_after,
+                &mut out.lambda,
+                &mut ok,
+                &mut conditioned,
+            );
+            // G's conditioning (`geometry` leaves it to this law when it
+            // is the only one; the same bit either way).
             for s in 0..BLOCK {
-                out.status[s] = geo.status[s] | bit(!ok[s], RECOMPUTE);
+                out.status[s] = geo.status[s] | bit(!(ok[s] & conditioned[s]), RECOMPUTE);
             }
         }
         Law::Poisson => {
             // Compression, then restitution: two LCPs per lane.
             let mut lc = [[T::ZERO; BLOCK]; N];
             let mut ok1 = [true; BLOCK];
-            lcp_block::<T, N, ROT>(c, geo, &geo.vn, &mut lc, &mut ok1);
+            let mut conditioned = [true; BLOCK];
+            lcp_block::<T, N, ROT>(c, geo, &geo.vn, &mut lc, &mut ok1, &mut conditioned);
             let mut q = [[T::ZERO; BLOCK]; N];
             for s in 0..BLOCK {
                 let g = lane_g::<T, N, ROT>(c, geo, s);
@@ -674,7 +798,7 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             // The restitution phase's supports are mixed (about 44 % of S3's
             // lanes are neither empty nor full), so no certificate is tried.
             let mut ok2 = [true; BLOCK];
-            lcp_lanes::<T, N, ROT>(c, geo, &q, &mut out.lambda, &mut ok2);
+            lcp_lanes::<T, N, ROT>(c, geo, &q, &mut out.lambda, &mut ok2, &mut conditioned);
             for s in 0..BLOCK {
                 for i in 0..N {
                     out.lambda[i][s] = lc[i][s] + c.k[i] * lc[i][s] + out.lambda[i][s];
@@ -910,19 +1034,28 @@ mod tests {
             state += 1;
             (mix64(state) >> 11) as f64 / (1u64 << 53) as f64
         };
-        let (mut fast, mut slow, mut gathered) = (0, 0, 0);
+        let (mut fast, mut slow, mut gathered, mut ill) = (0, 0, 0, 0);
         for block in 0..200 {
             let easy = block % 2 == 0;
             let mut geo = Geometry::<T, N>::new();
             let mut q = [[T::ZERO; BLOCK]; N];
             for s in 0..BLOCK {
-                // G = BᵀB + εI with B random: symmetric positive definite.
-                let b: [[f64; 3]; 3] =
+                // G = BᵀB + εI with B random: symmetric positive definite;
+                // in one lane of 32, B with two equal columns and ε = 0 (G
+                // singular to rounding: ill-conditioned in both types).
+                let mut b: [[f64; 3]; 3] =
                     std::array::from_fn(|_| std::array::from_fn(|_| next() - 0.5));
+                let singular = s % 32 == 5;
+                if singular {
+                    for row in b.iter_mut() {
+                        row[N - 1] = row[0];
+                    }
+                }
+                let eps = if singular { 0.0 } else { 1e-3 };
                 let g: [[f64; N]; N] = std::array::from_fn(|i| {
                     std::array::from_fn(|j| {
                         (0..3).map(|k| b[k][i] * b[k][j]).sum::<f64>()
-                            + if i == j { 1e-3 } else { 0.0 }
+                            + if i == j { eps } else { 0.0 }
                     })
                 });
                 for i in 0..N {
@@ -956,7 +1089,8 @@ mod tests {
             }
             let mut lam = [[T::ZERO; BLOCK]; N];
             let mut ok = [false; BLOCK];
-            lcp_block::<T, N, true>(&c, &geo, &q, &mut lam, &mut ok);
+            let mut conditioned = [false; BLOCK];
+            lcp_block::<T, N, true>(&c, &geo, &q, &mut lam, &mut ok, &mut conditioned);
             let uncertain = (0..BLOCK)
                 .filter(|&s| {
                     let qs: [T; N] = std::array::from_fn(|i| q[i][s]);
@@ -970,6 +1104,11 @@ mod tests {
                 let (want, want_ok) = lcp_lane(&c, &g, &qs);
                 let got: [T; N] = std::array::from_fn(|i| lam[i][s]);
                 assert_eq!((got, ok[s]), (want, want_ok), "lane {s}: G {g:?}, q {qs:?}");
+                // The conditioning bit Newton's law takes from the LCP is
+                // the geometry pass's.
+                let want_conditioned = well_conditioned(&g, c.det_min);
+                assert_eq!(conditioned[s], want_conditioned, "lane {s}: G {g:?}");
+                ill += !want_conditioned as usize;
                 if full_support(&c, &g, &qs).1 {
                     fast += 1;
                 } else {
@@ -984,6 +1123,76 @@ mod tests {
             "{fast} certified, {slow} enumerated"
         );
         assert!(gathered > 50, "{gathered} blocks gathered");
+        assert!(ill > 0, "no ill-conditioned G drawn");
+    }
+
+    /// The geometry passes' axis route (rows of A, components of v) gives
+    /// what the general one (products with the normals) gives, bit for bit,
+    /// on drawn blocks: the corner's three planes, the same with walls
+    /// facing −x and −y, and the floor alone, in both precisions.
+    fn axis_geometry_is_the_general_one<T: Real, const N: usize>(text: &str) {
+        let raw = Scene::parse("axes.toml", text).expect("toml");
+        let scene = Scene::validate("axes.toml", text, raw).expect("valid scene");
+        let fast = Consts::<T, N>::new(&scene);
+        assert!(fast.axes.is_some(), "every normal is an axis");
+        let general = Consts {
+            axes: None,
+            ..fast.clone()
+        };
+        let sampler = crate::sampler::Sampler::new(&scene);
+        let mut x = Inputs::<T>::new();
+        let (mut a, mut b) = (Geometry::<T, N>::new(), Geometry::<T, N>::new());
+        let mut approaching = 0;
+        for block in 0..50 {
+            sampler.fill(block * BLOCK as u64, &mut x);
+            geometry::<T, N, true>(&fast, &x, &mut a, true);
+            geometry::<T, N, true>(&general, &x, &mut b, true);
+            let bits = |g: &Geometry<T, N>| {
+                let mut v: Vec<f64> = g.vn.iter().flatten().map(|t| t.to_f64()).collect();
+                v.extend(g.rho.iter().flatten().flatten().map(|t| t.to_f64()));
+                v.extend(
+                    (0..N)
+                        .flat_map(|i| (i..N).flat_map(move |j| g.g[i][j]))
+                        .map(|t| t.to_f64()),
+                );
+                v.extend(g.t_before.iter().map(|t| t.to_f64()));
+                v.extend(g.status.iter().map(|&s| s as f64));
+                v.into_iter().map(f64::to_bits).collect::<Vec<u64>>()
+            };
+            assert_eq!(bits(&a), bits(&b), "block {block}");
+            approaching += a
+                .status
+                .iter()
+                .filter(|&&s| s & ((1 << N) - 1) != 0)
+                .count();
+        }
+        assert!(
+            approaching > 1000,
+            "{approaching} lanes with an approaching contact"
+        );
+    }
+
+    #[test]
+    fn axis_geometry_is_the_general_one_on_axis_planes() {
+        let corner = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/corner3.toml"),
+        )
+        .expect("shipped scene");
+        let facing_back = corner
+            .replace("normal = [1.0, 0.0, 0.0]", "normal = [-1.0, 0.0, 0.0]")
+            .replace("normal = [0.0, 1.0, 0.0]", "normal = [0.0, -1.0, 0.0]")
+            .replace("mean = [-1.0, -1.0, -1.0]", "mean = [1.0, 1.0, -1.0]");
+        assert_ne!(facing_back, corner);
+        let floor = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/floor.toml"),
+        )
+        .expect("shipped scene");
+        for text in [&corner, &facing_back] {
+            axis_geometry_is_the_general_one::<f32, 3>(text);
+            axis_geometry_is_the_general_one::<f64, 3>(text);
+        }
+        axis_geometry_is_the_general_one::<f32, 1>(&floor);
+        axis_geometry_is_the_general_one::<f64, 1>(&floor);
     }
 
     #[test]

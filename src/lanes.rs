@@ -72,6 +72,9 @@ pub trait Real:
     fn uniform_split(hi: u32, lo: u64) -> Self;
     /// Natural logarithm for finite `x > 0`.
     fn ln(self) -> Self;
+    /// `(e, m)` with `self = m·2^e`, m in (√½, √2] (√2 as this type
+    /// rounds it), for `ln`: integer operations on the bits only.
+    fn ln_reduce(self) -> (Self, Self);
     /// `(sin 2πx, cos 2πx)` for any finite x.
     fn sin_cos_2pi(self) -> (Self, Self);
     /// `sin_cos_2pi` for x in [0, 1] (uniform draws), with a cheaper
@@ -158,20 +161,29 @@ macro_rules! real_impl {
             }
             #[inline(always)]
             fn ln(self) -> Self {
-                // x = m·2^e with m in [√½, √2); ln m = 2 atanh(s), s = (m−1)/(m+1).
-                let bits = self.to_bits();
-                // i32 arithmetic: the exponent fits, and i32 → float
-                // conversions vectorise on every target (i64 ones need AVX-512).
-                let raw_exp = ((bits >> $mant) as i32) - $bias;
-                let mant_bits = (bits & (((1 as $bits) << $mant) - 1)) | (($bias as $bits) << $mant);
-                let m = <$t>::from_bits(mant_bits); // in [1, 2)
-                let big = m > core::f64::consts::SQRT_2 as $t;
-                let m = if big { m * 0.5 } else { m };
-                let e = (raw_exp + big as i32) as $t;
+                // x = m·2^e with m in (√½, √2]; ln m = 2 atanh(s), s = (m−1)/(m+1).
+                let (e, m) = self.ln_reduce();
                 let s = (m - 1.0) / (m + 1.0);
                 let s2 = s * s;
                 let p = horner([$($lc as $t),*], s2);
                 e.mul_add(core::f64::consts::LN_2 as $t, 2.0 * s * p)
+            }
+            #[inline(always)]
+            fn ln_reduce(self) -> (Self, Self) {
+                // Adding 2^mant − f_c to the bits, for f_c the mantissa
+                // field of the smallest m above √2, carries into the
+                // exponent exactly when the mantissa field is ≥ f_c; adding
+                // C back to the low bits (exponent field bias − 1) gives m
+                // or m/2. The same (e, m) as comparing m with √2 and
+                // halving (tested), in integer operations: i32 arithmetic
+                // for the exponent, whose conversion vectorises on every
+                // target (i64 ones need AVX-512).
+                const MANT_MASK: $bits = ((1 as $bits) << $mant) - 1;
+                const C: $bits = ((core::f64::consts::SQRT_2 as $t).to_bits() + 1) - (1 << $mant);
+                const SHIFT: $bits = (($bias as $bits) << $mant) - C;
+                let b = self.to_bits().wrapping_add(SHIFT);
+                let e = (((b >> $mant) as i32) - $bias) as $t;
+                (e, <$t>::from_bits((b & MANT_MASK) + C))
             }
             #[inline(always)]
             fn sin_cos_2pi(self) -> (Self, Self) {
@@ -471,6 +483,52 @@ mod tests {
             "f32 ln error {worst32:e}"
         );
         assert!((Real::ln(f64::MIN_POSITIVE) - f64::MIN_POSITIVE.ln()).abs() < 1e-12);
+    }
+
+    /// `ln_reduce` is the reduction by comparison with √2 and halving,
+    /// bit for bit: around the √2 boundary and across the mantissas of
+    /// every exponent (subnormals included), in both types.
+    #[test]
+    fn ln_reduction_is_the_halving_one() {
+        fn halving32(x: f32) -> (f32, f32) {
+            let bits = x.to_bits();
+            let m = f32::from_bits((bits & 0x7f_ffff) | (127 << 23));
+            let big = m > std::f32::consts::SQRT_2;
+            let e = ((bits >> 23) as i32 - 127 + big as i32) as f32;
+            (e, if big { m * 0.5 } else { m })
+        }
+        fn halving64(x: f64) -> (f64, f64) {
+            let bits = x.to_bits();
+            let m = f64::from_bits((bits & 0xf_ffff_ffff_ffff) | (1023 << 52));
+            let big = m > std::f64::consts::SQRT_2;
+            let e = ((bits >> 52) as i64 - 1023 + big as i64) as f64;
+            (e, if big { m * 0.5 } else { m })
+        }
+        let boundary32 = std::f32::consts::SQRT_2.to_bits() & 0x7f_ffff;
+        let boundary64 = std::f64::consts::SQRT_2.to_bits() & 0xf_ffff_ffff_ffff;
+        for exp in 0..255u32 {
+            let near = (0..4000u32).map(|k| boundary32 - 2000 + k);
+            for f in near.chain((0..0x80_0000).step_by(997)) {
+                let x = f32::from_bits(exp << 23 | f);
+                if x > 0.0 {
+                    let (got, want) = (x.ln_reduce(), halving32(x));
+                    assert_eq!(got.0.to_bits(), want.0.to_bits(), "{x:e}");
+                    assert_eq!(got.1.to_bits(), want.1.to_bits(), "{x:e}");
+                }
+            }
+        }
+        for exp in 0..2047u64 {
+            let near = (0..400u64).map(|k| boundary64 - 200 + k);
+            let spread = (0..400u64).map(|k| k * 0x2_8f5c_28f5_c28f % 0x10_0000_0000_0000);
+            for f in near.chain(spread) {
+                let x = f64::from_bits(exp << 52 | f);
+                if x > 0.0 {
+                    let (got, want) = (x.ln_reduce(), halving64(x));
+                    assert_eq!(got.0.to_bits(), want.0.to_bits(), "{x:e}");
+                    assert_eq!(got.1.to_bits(), want.1.to_bits(), "{x:e}");
+                }
+            }
+        }
     }
 
     #[test]

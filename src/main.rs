@@ -108,6 +108,13 @@ struct RunArgs {
     /// saved with its accumulator state for `impactmc merge`.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
+    /// Statistics with quantiles (p01, median, p99) and histograms,
+    /// comma-separated: energy_ratio, omega_after_norm,
+    /// velocity_after_norm, impulse, rebound. Replaces the scene's
+    /// `[statistics] quantiles` (default: energy_ratio); `--quantiles ''`
+    /// keeps none (moments only).
+    #[arg(long, value_delimiter = ',', value_name = "STATS")]
+    quantiles: Option<Vec<String>>,
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
@@ -216,6 +223,11 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         seed: args.seed,
         laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
         precision: args.precision.clone(),
+        // `--quantiles ''` is the empty list, as `quantiles = []` is.
+        quantiles: args
+            .quantiles
+            .clone()
+            .map(|q| if q == [""] { Vec::new() } else { q }),
     };
     let shard = args
         .shard

@@ -649,6 +649,8 @@ pub struct Overrides {
     pub seed: Option<u64>,
     pub laws: Option<Vec<String>>,
     pub precision: Option<String>,
+    /// `--quantiles`: replaces `[statistics] quantiles`.
+    pub quantiles: Option<Vec<String>>,
 }
 
 impl Overrides {
@@ -664,6 +666,10 @@ impl Overrides {
         }
         if let Some(p) = &self.precision {
             raw.precision = p.clone();
+        }
+        if let Some(q) = &self.quantiles {
+            let st = raw.statistics.get_or_insert_with(Default::default);
+            st.quantiles = Some(q.clone());
         }
         if self.per_sample || self.columns.is_some() {
             let out = raw.output.get_or_insert_with(Default::default);
@@ -749,7 +755,10 @@ impl Statistics {
     };
 
     fn from_raw(raw: Option<&crate::config::RawStatistics>) -> Result<Self, Bad> {
-        let mut quantiles = [true, true, true, false, false];
+        // Default: the energy ratio's, as in the summary of issue #3's JSON
+        // interface (means and CIs for |ω⁺| and |v⁺|); each histogram costs
+        // about one memory increment per sample (README, Performance).
+        let mut quantiles = [true, false, false, false, false];
         if let Some(names) = raw.and_then(|r| r.quantiles.as_ref()) {
             quantiles = [false; 5];
             for (i, n) in names.iter().enumerate() {

@@ -73,7 +73,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
         // No shipped scene asks for more than the default statistics.
         assert_eq!(
             e.statistics.describe(),
-            "quantiles of energy_ratio, omega_after_norm, velocity_after_norm",
+            "quantiles of energy_ratio",
             "{name}"
         );
     }

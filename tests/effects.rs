@@ -19,12 +19,23 @@ fn repo(rel: &str) -> std::path::PathBuf {
 }
 
 fn shipped(name: &str, precision: &str, samples: u64) -> Scene {
+    shipped_with(name, precision, samples, None)
+}
+
+/// [`shipped`] with `--quantiles`'s override.
+fn shipped_with(
+    name: &str,
+    precision: &str,
+    samples: u64,
+    quantiles: Option<Vec<String>>,
+) -> Scene {
     load_scene(
         &repo(&format!("configs/{name}.toml")),
         &Overrides {
             precision: Some(precision.into()),
             samples: Some(samples),
             laws: Some(vec!["newton".into(), "paper".into()]),
+            quantiles,
             ..Overrides::default()
         },
     )
@@ -236,7 +247,11 @@ fn run_statistics_do_not_depend_on_the_specialisation() {
 /// computed, and agrees with the kernel that computes it per sample.
 #[test]
 fn constant_spin_is_counted_exactly() {
-    let s = shipped("floor_sphere", "f32", 50_000);
+    // With |ω⁺|'s quantiles, which the default does not keep.
+    let q = ["energy_ratio", "omega_after_norm"]
+        .map(String::from)
+        .to_vec();
+    let s = shipped_with("floor_sphere", "f32", 50_000, Some(q));
     assert_eq!(s.effects().constant_spin, Some(0.0));
     assert!(s.effects().line().contains("|ω⁺| = 0 in every sample"));
     let (a, b) = (summary(&s, false), summary(&s, true));
@@ -262,17 +277,23 @@ fn constant_spin_is_counted_exactly() {
 
 #[test]
 fn only_requested_statistics_are_reported() {
-    // Default: quantiles of the three post-impact statistics, moments of
-    // the per-plane ones, no per-set groups.
+    // Default: quantiles of the energy ratio (issue #3's JSON), moments of
+    // everything else, no per-set groups.
     let s = edited("corner3", &[], "f32", "stats0");
+    assert!(s
+        .effects()
+        .line()
+        .ends_with("statistics: quantiles of energy_ratio"));
     let a = summary(&s, false);
     let law = a.laws["newton"]["groups"].as_object().unwrap();
     assert_eq!(law.keys().collect::<Vec<_>>(), ["all"]);
     let g = a.all_group("newton").unwrap();
     assert!(g.stats["energy_ratio"].get("median").is_some());
-    assert!(g.stats["velocity_after_norm"].get("p99").is_some());
-    assert!(g.stats["impulse_floor"].get("median").is_none());
-    assert!(g.stats["impulse_floor"].get("mean").is_some());
+    for stat in ["omega_after_norm", "velocity_after_norm", "impulse_floor"] {
+        assert!(g.stats[stat].get("median").is_none(), "{stat}");
+        assert!(g.stats[stat].get("p99").is_none(), "{stat}");
+        assert!(g.stats[stat].get("mean").is_some(), "{stat}");
+    }
 
     // Requested: impulse quantiles and per-set groups; no energy quantiles.
     let s = edited(

@@ -42,6 +42,8 @@ fn without_timing(s: &Summary) -> serde_json::Value {
 
 #[test]
 fn same_seed_same_summary_for_1_and_2_threads() {
+    // Every histogram the engine can keep, not only the default's.
+    let all = Some(impactmc::scene::STATISTIC_NAMES.map(String::from).to_vec());
     for precision in ["f32", "f64"] {
         let s = scene(
             "corner3",
@@ -49,12 +51,17 @@ fn same_seed_same_summary_for_1_and_2_threads() {
                 samples: Some(300_001),
                 precision: Some(precision.into()),
                 laws: Some(vec!["newton".into(), "paper".into(), "pgs4".into()]),
+                quantiles: all.clone(),
                 ..Overrides::default()
             },
         );
         let one = summary(&s, 1);
         let two = summary(&s, 2);
         let three = summary(&s, 3);
+        let g = one.all_group("pgs4").unwrap();
+        for stat in ["omega_after_norm", "impulse_floor", "rebound_wall_x"] {
+            assert!(g.stats[stat].get("median").is_some(), "{stat}");
+        }
         // serde_json prints f64 round-trip exactly, so equal values mean
         // bit-identical statistics.
         assert_eq!(without_timing(&one), without_timing(&two), "{precision}");
@@ -67,6 +74,7 @@ fn same_seed_same_summary_for_1_and_2_threads() {
                 seed: Some(43),
                 precision: Some(precision.into()),
                 laws: Some(vec!["newton".into(), "paper".into(), "pgs4".into()]),
+                quantiles: all.clone(),
                 ..Overrides::default()
             },
         );

@@ -43,6 +43,9 @@ fn python_readers_agree_with_the_run() {
             "--law",
             "paper",
             "--per-sample",
+            // Histograms of three statistics (the default keeps one).
+            "--quantiles",
+            "energy_ratio,omega_after_norm,velocity_after_norm",
             "--format",
             "json",
             "--out",

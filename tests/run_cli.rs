@@ -71,6 +71,55 @@ fn scene_errors_name_file_line_field_and_value() {
     }
 }
 
+/// `--quantiles` replaces the scene's `[statistics] quantiles`: the named
+/// statistics get p01, median and p99, the others only moments; a bad name
+/// is a scene error naming the list entry.
+#[test]
+fn quantiles_option_chooses_the_histograms() {
+    let text = corner3_text();
+    let (code, out, err) = run_text(
+        "q",
+        &text,
+        &[
+            "--quantiles",
+            "omega_after_norm,velocity_after_norm",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("statistics: quantiles of omega_after_norm, velocity_after_norm"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let stats = &v["laws"]["newton"]["groups"]["all"]["stats"];
+    for (stat, kept) in [
+        ("energy_ratio", false),
+        ("omega_after_norm", true),
+        ("velocity_after_norm", true),
+    ] {
+        assert!(stats[stat]["mean"].is_number(), "{stat}");
+        for f in ["p01", "median", "p99"] {
+            assert_eq!(stats[stat][f].is_number(), kept, "{stat}.{f}");
+        }
+    }
+    // The empty list: moments only, as `quantiles = []`.
+    let (code, out, err) = run_text("qnone", &text, &["--quantiles", "", "--format", "json"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("statistics: no quantiles"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let er = &v["laws"]["newton"]["groups"]["all"]["stats"]["energy_ratio"];
+    assert!(er["mean"].is_number() && er.get("median").is_none(), "{er}");
+    let (code, out, err) = run_text("qbad", &text, &["--quantiles", "energy_ratio,spin"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(out.is_empty(), "{out}");
+    assert!(
+        err.contains("statistics.quantiles[1]: unknown statistic \"spin\""),
+        "{err}"
+    );
+}
+
 #[test]
 fn output_folder_rules_and_json_summary() {
     let d = tmpdir("out");
@@ -104,9 +153,14 @@ fn output_folder_rules_and_json_summary() {
     for key in ["samples", "impacts", "stats", "fractions", "active_sets"] {
         assert!(all.get(key).is_some(), "missing all.{key}");
     }
+    // The interface: quantiles of the energy ratio; moments of all.
     for stat in ["energy_ratio", "omega_after_norm", "velocity_after_norm"] {
-        for f in ["mean", "ci95", "sd", "min", "p01", "median", "p99", "max"] {
+        for f in ["mean", "ci95", "sd", "min", "max"] {
             assert!(all["stats"][stat][f].is_number(), "{stat}.{f}");
+        }
+        for f in ["p01", "median", "p99"] {
+            let kept = stat == "energy_ratio";
+            assert_eq!(all["stats"][stat][f].is_number(), kept, "{stat}.{f}");
         }
     }
     assert!(all["active_sets"]["wall_x+wall_y+floor"].as_f64().unwrap() > 0.5);

@@ -33,6 +33,11 @@ fn scene(d: &Path, extra: &str) -> PathBuf {
         &format!("batch_size = 1024\n{extra}samples = "),
         1,
     );
+    // Every histogram the engine can keep goes through the shard state,
+    // not only the default's.
+    let text = text
+        + "\n[statistics]\nquantiles = [\"energy_ratio\", \"omega_after_norm\", \
+           \"velocity_after_norm\", \"impulse\", \"rebound\"]\n";
     let p = d.join("scene.toml");
     std::fs::write(&p, text).unwrap();
     p

@@ -45,7 +45,7 @@ fn same_bits<T: Real, const N: usize, const ROT: bool, const CPL: bool>(name: &s
         let (mut g1, mut o1) = (Geometry::<T, N>::new(), LawOut::<T, N>::new());
         kernel_block::<T, N, ROT, CPL>(&consts, law, &fast, &mut g1, &mut o1);
         let (mut g2, mut o2) = (Geometry::<T, N>::new(), LawOut::<T, N>::new());
-        geometry::<T, N, ROT>(&consts, &fast, &mut g2);
+        geometry::<T, N, ROT>(&consts, &fast, &mut g2, true);
         impulses::<T, N, ROT, CPL>(&consts, law, &g2, &mut o2);
         post::<T, N, ROT>(&consts, &fast, &g2, &mut o2);
         let what = format!("{name} {} {law:?}", T::NAME);
