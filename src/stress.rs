@@ -7,13 +7,13 @@
 
 use glam::{DMat3, DVec3};
 
+use crate::config::Scene;
 use crate::config::{RawBody, RawOrientation, RawPlacement, RawPlane, RawScene, RawVector};
 use crate::engine::evaluate_samples;
 use crate::kernel::{DEGENERATE, ENERGY_GAIN, JAMMED, RECOMPUTED};
 use crate::physics::{
     bryan_from_matrix, matrix_from_bryan, solve_impact, Bryan, Ellipsoid, Law, Plane, Pose, State,
 };
-use crate::scene::Scene;
 
 /// Laws every family is run under.
 pub const LAWS: [Law; 4] = [
@@ -352,7 +352,7 @@ fn states(n: usize, speed: f64, spin: f64) -> Vec<State> {
     (0..n)
         .map(|i| {
             let f = |j: u64| {
-                let x = crate::lanes::mix64(i as u64 * 8 + j);
+                let x = crate::sampler::rng::mix64(i as u64 * 8 + j);
                 (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
             };
             State {

@@ -1,24 +1,29 @@
 //! A study: every grid point of a scene file run in turn, summarised, and
 //! written as one run folder (summary, histograms, manifest; staged and
 //! renamed together at the end).
+//!
+//! This is the one entry point that chooses the engine for a scene
+//! ([`prepare`], then [`run`]); the command line prints what it returns.
 
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use serde_json::json;
 
-use crate::config::RawScene;
-use crate::engine::Shard;
-use crate::engine::{
-    run_with_samples, sample_columns, RunError, RunOptions, RunResult, SampleRows,
-};
-use crate::manifest::{utc_string, Machine, Manifest, MergeInfo, ShardRef};
+use crate::config::sweep::{plan, Axis};
+use crate::config::{Keep, RawScene};
+use crate::config::{Overrides, Scene, SceneError};
+use crate::drop::DropRun;
+use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
+use crate::kernel::KernelVariant;
+use crate::output::manifest::{Manifest, MergeInfo, ShardRef, Timing};
+use crate::output::samples::{sample_columns, SampleRows};
+use crate::output::samples::{SamplesWriter, Selection};
+use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
+use crate::output::summary::Summary;
 use crate::output::{histograms_frame, summary_frame, write_parquet, OutputError, Staging};
-use crate::samples::{SamplesWriter, Selection};
-use crate::scene::{Overrides, Scene, SceneError};
-use crate::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
-use crate::summary::Summary;
-use crate::sweep::{plan, Axis};
+use crate::stats::tree::Shard;
+use crate::stats::RunResult;
 
 /// One grid point's run.
 pub struct PointRun {
@@ -60,6 +65,9 @@ pub struct Study {
 pub enum StudyError {
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// A request this kind of scene cannot serve (e.g. a sweep of a drop).
+    #[error("{0}")]
+    Unsupported(String),
     #[error(transparent)]
     Run(#[from] RunError),
     #[error(transparent)]
@@ -80,7 +88,7 @@ pub fn run_study(
 ) -> Result<Study, StudyError> {
     let (axes, points) = plan(path, overrides)?;
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(&file, &e))?;
     let mut raw = Scene::parse(&file, &text)?;
     overrides.apply(&mut raw);
     let mut staging = Staging::new(dir);
@@ -109,16 +117,16 @@ pub fn run_study(
         let result = match writer.as_mut() {
             None => run_with_samples(&p.scene, opts, None)?,
             Some(w) => {
-                let parquet = |e: polars::prelude::PolarsError| RunError::Sink(e.to_string());
+                let parquet = |e: polars::prelude::PolarsError| RunError::Sink(Box::new(e));
                 w.set_point(sweep.then_some(i as u32)).map_err(parquet)?;
-                let mut sink = |rows: SampleRows| w.push(rows).map_err(|e| e.to_string());
+                let mut sink = |rows: SampleRows| w.push(rows).map_err(SinkError::from);
                 run_with_samples(&p.scene, opts, Some(&mut sink))?
             }
         };
         runs.push(PointRun::new(p.values, p.scene, result));
     }
     let sample_rows = match writer {
-        Some(w) => Some(w.finish().map_err(|e| RunError::Sink(e.to_string()))?),
+        Some(w) => Some(w.finish().map_err(|e| RunError::Sink(Box::new(e)))?),
         None => None,
     };
     Ok(Study {
@@ -135,14 +143,14 @@ pub fn run_study(
 }
 
 /// Merges shard folders into a study with the outputs of a single run (see
-/// [`crate::shard`]). The scene is the shards' own `scene.toml`.
+/// [`crate::output::shard`]). The scene is the shards' own `scene.toml`.
 pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<Study, StudyError> {
     let started = SystemTime::now();
     let checked = check(dirs, allow_partial)?;
     let first = &checked.shards[0];
     let scene_path = first.dir.join("scene.toml");
-    let text = std::fs::read_to_string(&scene_path).unwrap_or_default();
     let file = scene_path.display().to_string();
+    let text = std::fs::read_to_string(&scene_path).map_err(|e| SceneError::io(&file, &e))?;
     let mut raw = Scene::parse(&file, &text)?;
     // A merge writes summaries only; per-sample rows stay in the shards.
     if let Some(o) = raw.output.as_mut() {
@@ -371,26 +379,122 @@ impl Study {
         if self.sample_rows.is_some() {
             files.push("samples.parquet".into());
         }
-        let manifest = Manifest {
-            schema_version: crate::SCHEMA_VERSION,
-            impactmc_version: env!("CARGO_PKG_VERSION"),
-            git_commit: env!("IMPACTMC_GIT_COMMIT"),
-            scene: self.raw.clone(),
-            seed: self.raw.seed,
-            samples: self.raw.samples,
-            points: self.points.len(),
-            started_utc: utc_string(self.started),
-            finished_utc: utc_string(self.finished),
+        let timing = Timing {
+            started: self.started,
+            finished: self.finished,
             wall_seconds: self.points.iter().map(|p| p.result.wall_seconds).sum(),
             cpu_seconds: self.points.iter().map(|p| p.result.cpu_seconds).sum(),
             threads: self.points[0].result.threads,
-            machine: Machine::current(),
-            files,
-            effects: Some(self.points[0].scene.effects().clone()),
-            shard: shard_ref,
-            merge: self.merge.clone(),
         };
+        let scene = &self.points[0].scene;
+        let mut manifest = Manifest::new(&self.raw, scene.effects(), self.points.len(), timing);
+        manifest.files = files;
+        manifest.shard = shard_ref;
+        manifest.merge = self.merge.clone();
         staging.write_json("manifest.json", &manifest)?;
         staging.commit()
     }
+}
+
+/// What a scene will run, known before any work: for the command line to
+/// print first and to name the output folder.
+pub struct Prepared {
+    pub name: String,
+    /// The effect set (`effects: …`).
+    pub effects_line: String,
+    /// The kernel instantiation (`kernel: …`), for contact scenes.
+    pub kernel_line: Option<String>,
+    pub drop: bool,
+}
+
+/// Validates a scene file (every sweep point) with its overrides and says
+/// what it will run.
+pub fn prepare(path: &Path, overrides: &Overrides, keep: Keep) -> Result<Prepared, StudyError> {
+    let (_, points) = plan(path, overrides)?;
+    let scene = &points[0].scene;
+    let drop = scene.drop_box().is_some();
+    let kernel_line = (!drop).then(|| {
+        let variant = KernelVariant::of(scene, keep);
+        let kept = if keep == Keep::NONE {
+            String::new()
+        } else {
+            format!(" (kept although not needed: {keep:?})")
+        };
+        format!("kernel: {}{kept}", variant.name())
+    });
+    Ok(Prepared {
+        name: scene.name().to_string(),
+        effects_line: scene.effects().line(),
+        kernel_line,
+        drop,
+    })
+}
+
+/// A drop study: the drop engine's run of a scene with `placement.drop`.
+pub struct DropStudy {
+    pub scene: Scene,
+    pub run: DropRun,
+    started: SystemTime,
+    dir: PathBuf,
+}
+
+/// What [`run`] returns: the study of a contact scene or of a drop scene.
+pub enum Outcome {
+    Contacts(Study),
+    Drops(DropStudy),
+}
+
+impl Outcome {
+    /// The terminal summary.
+    pub fn text(&self) -> String {
+        match self {
+            Outcome::Contacts(s) => s.text(),
+            Outcome::Drops(d) => d.run.text(&d.scene),
+        }
+    }
+
+    /// The JSON summary (`--format json`, `summary.json`).
+    pub fn summary_json(&self) -> serde_json::Value {
+        match self {
+            Outcome::Contacts(s) => s.summary_json(),
+            Outcome::Drops(d) => d.run.summary_json(&d.scene),
+        }
+    }
+
+    /// Writes the run folder, staged and renamed together.
+    pub fn write(self) -> Result<Vec<PathBuf>, OutputError> {
+        match self {
+            Outcome::Contacts(s) => s.write(),
+            Outcome::Drops(d) => crate::drop::write_outputs(&d.run, &d.scene, &d.dir, d.started),
+        }
+    }
+}
+
+/// Runs a scene file with the engine its scene calls for: the contact
+/// engine ([`run_study`]) or, for `placement.drop`, the drop engine.
+pub fn run(
+    path: &Path,
+    overrides: &Overrides,
+    opts: &RunOptions,
+    dir: &Path,
+) -> Result<Outcome, StudyError> {
+    let (_, points) = plan(path, overrides)?;
+    if points[0].scene.drop_box().is_none() {
+        return Ok(Outcome::Contacts(run_study(path, overrides, opts, dir)?));
+    }
+    if points.len() > 1 || opts.shard.is_some() || points[0].scene.effects().per_sample {
+        return Err(StudyError::Unsupported(format!(
+            "{}: drop scenes (placement.drop) do not support sweeps, --shard or per-sample rows yet",
+            path.display()
+        )));
+    }
+    let scene = points.into_iter().next().expect("one point").scene;
+    let started = SystemTime::now();
+    let run = crate::drop::run_drop(&scene, opts.threads).map_err(RunError::Pool)?;
+    Ok(Outcome::Drops(DropStudy {
+        scene,
+        run,
+        started,
+        dir: dir.to_path_buf(),
+    }))
 }

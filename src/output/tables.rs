@@ -1,152 +1,11 @@
-//! Run outputs: one folder per run, every file written under a temporary
-//! name and renamed when complete, so a file is either whole or absent
-//! (cryo's export pattern).
-
-use std::fs;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+//! The run folder's tables: `summary.parquet` and `histograms.parquet` as
+//! frames, their metadata, and Parquet writing into the staging area.
 
 use polars::prelude::*;
 
-use crate::summary::{StatSummary, Summary};
-
-/// Why outputs could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("output folder {path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("output folder {0} already holds a run; pass --force to overwrite it")]
-    Exists(String),
-    #[error("writing {path}: {source}")]
-    Parquet {
-        path: String,
-        #[source]
-        source: PolarsError,
-    },
-}
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-    move |source| OutputError::Io {
-        path: path.display().to_string(),
-        source,
-    }
-}
-
-/// Prepares the output folder: creates it, refuses one that already holds a
-/// run unless `force`, and checks that it is writable before any work.
-pub fn prepare_dir(dir: &Path, force: bool) -> Result<(), OutputError> {
-    fs::create_dir_all(dir).map_err(io(dir))?;
-    // manifest.json marks a finished run (it is written last); accuracy.md
-    // a finished accuracy ladder.
-    if !force
-        && ["manifest.json", "accuracy.md"]
-            .iter()
-            .any(|f| dir.join(f).exists())
-    {
-        return Err(OutputError::Exists(dir.display().to_string()));
-    }
-    // Temporary files of killed runs (their process is gone) are removed.
-    if let Ok(entries) = fs::read_dir(dir) {
-        for e in entries.flatten() {
-            let name = e.file_name().to_string_lossy().to_string();
-            if let Some(pid) = name
-                .rsplit_once(".partial-")
-                .and_then(|(_, p)| p.parse::<u32>().ok())
-            {
-                if name.starts_with('.') && !Path::new(&format!("/proc/{pid}")).exists() {
-                    let _ = fs::remove_file(e.path());
-                }
-            }
-        }
-    }
-    let probe = dir.join(".impactmc-write-probe");
-    fs::write(&probe, b"").map_err(io(dir))?;
-    fs::remove_file(&probe).map_err(io(dir))?;
-    Ok(())
-}
-
-/// Files of a run folder written under temporary names (`.NAME.partial-PID`)
-/// and renamed together by [`Staging::commit`], the manifest last. Until then
-/// nothing in the folder looks complete; dropping an uncommitted staging area
-/// (an error, a panic) removes its temporary files.
-pub struct Staging {
-    dir: PathBuf,
-    files: Vec<(PathBuf, PathBuf)>,
-    committed: bool,
-}
-
-impl Staging {
-    pub fn new(dir: &Path) -> Self {
-        Self {
-            dir: dir.to_path_buf(),
-            files: Vec::new(),
-            committed: false,
-        }
-    }
-
-    pub fn dir(&self) -> &Path {
-        &self.dir
-    }
-
-    /// Creates the temporary file for `name`.
-    pub fn create(&mut self, name: &str) -> Result<fs::File, OutputError> {
-        let final_path = self.dir.join(name);
-        let tmp = self
-            .dir
-            .join(format!(".{name}.partial-{}", std::process::id()));
-        let f = fs::File::create(&tmp).map_err(io(&tmp))?;
-        self.files.push((tmp, final_path));
-        Ok(f)
-    }
-
-    /// Writes `name` through `write` and syncs it.
-    pub fn write(
-        &mut self,
-        name: &str,
-        write: impl FnOnce(&mut fs::File) -> Result<(), OutputError>,
-    ) -> Result<(), OutputError> {
-        let mut f = self.create(name)?;
-        write(&mut f)?;
-        f.sync_all().map_err(io(&self.dir.join(name)))
-    }
-
-    /// Writes JSON.
-    pub fn write_json<T: serde::Serialize>(
-        &mut self,
-        name: &str,
-        value: &T,
-    ) -> Result<(), OutputError> {
-        let text = serde_json::to_string_pretty(value).expect("serialisable") + "\n";
-        let path = self.dir.join(name);
-        self.write(name, |f| f.write_all(text.as_bytes()).map_err(io(&path)))
-    }
-
-    /// Renames every file into place, in the order written (write the
-    /// manifest last).
-    pub fn commit(mut self) -> Result<Vec<PathBuf>, OutputError> {
-        let mut done = Vec::new();
-        for (tmp, final_path) in std::mem::take(&mut self.files) {
-            fs::rename(&tmp, &final_path).map_err(io(&final_path))?;
-            done.push(final_path);
-        }
-        self.committed = true;
-        Ok(done)
-    }
-}
-
-impl Drop for Staging {
-    fn drop(&mut self) {
-        if !self.committed {
-            for (tmp, _) in &self.files {
-                let _ = fs::remove_file(tmp);
-            }
-        }
-    }
-}
+use crate::output::staging::{OutputError, Staging};
+use crate::output::summary::{StatSummary, Summary};
+use crate::stats::accumulators::LawAcc;
 
 /// Column name of a swept field: `sweep_` and the path with every run of
 /// other characters than letters and digits turned into `_`
@@ -223,7 +82,7 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
             continue;
         };
         for (group, gv) in groups {
-            let g: crate::summary::GroupSummary = serde_json::from_value(gv.clone())
+            let g: crate::output::summary::GroupSummary = serde_json::from_value(gv.clone())
                 .map_err(|e| PolarsError::ComputeError(format!("summary group: {e}").into()))?;
             law_col.push(law.clone());
             group_col.push(group.clone());
@@ -299,7 +158,7 @@ pub type PointValues = Vec<(String, f64)>;
 
 /// A grid point's accumulators per law: (law name, touching plane names,
 /// accumulators).
-pub type LawAccs<'a> = Vec<(String, Vec<String>, &'a crate::engine::LawAcc)>;
+pub type LawAccs<'a> = Vec<(String, Vec<String>, &'a LawAcc)>;
 
 /// The summary table of a study: [`summary_frame_one`] per grid point, with
 /// `point` and the `sweep_*` columns in front.
@@ -364,7 +223,7 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
                 ));
             }
             for (mask, g) in acc.groups.iter().enumerate() {
-                let set_name = crate::summary::active_set_name(mask, contacts);
+                let set_name = crate::output::summary::active_set_name(mask, contacts);
                 let set_name = if set_name.is_empty() {
                     "(none)".to_string()
                 } else {

@@ -20,17 +20,14 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+pub mod rng;
+
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::lanes::{CounterRng, Real};
-use crate::scene::{OrientationDist, Scene, VectorDist};
-
-/// Samples per SoA block: the kernel's unit of vectorised work (a multiple
-/// of 16). Chosen by measurement, end to end on Zen 4 (2026-11-24): 256
-/// made S3 f64 14 % slower (its blocks hold about 640 bytes per lane) and
-/// 128 made f32 about 3 % slower; 192 is within noise of the best for S1
-/// and S3 in both precisions.
-pub const BLOCK: usize = 192;
+use crate::config::{OrientationDist, Scene, VectorDist};
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::Real;
+use crate::sampler::rng::CounterRng;
 
 /// Every row of the orientation matrix (see [`Sampler::with_matrix_rows`]).
 pub const ALL_ROWS: u8 = 0b111;
@@ -165,7 +162,7 @@ fn bryan_matrix<T: Real>(psi: T, theta: T, phi: T) -> [T; 9] {
 impl Sampler {
     pub fn new(scene: &Scene) -> Self {
         Self {
-            rng: CounterRng::new(scene.seed(), WORDS),
+            rng: CounterRng::new(scene.seed() ^ rng::SAMPLE_STREAM, WORDS),
             orientation_needed: true,
             matrix_rows: ALL_ROWS,
             orientation: scene.orientation(),

@@ -3,7 +3,7 @@
 //! `impactmc run SCENE --shard I/N` runs the contiguous share
 //! `[⌊I·B/N⌋, ⌊(I+1)·B/N⌋)` of each grid point's B batches and saves, next to
 //! the usual outputs for its share, the accumulator state of the merge-tree
-//! nodes it completed ([`crate::engine::Node`]). `impactmc merge` rebuilds
+//! nodes it completed ([`crate::stats::tree::Node`]). `impactmc merge` rebuilds
 //! every point's tree from the shards' nodes, so N shards give the single
 //! run's summary to the last bit, whatever N.
 //!
@@ -29,8 +29,10 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{reduce_tree, Node, RunAcc, RunResult, Shard, Slot};
+use crate::stats::accumulators::{RunAcc, Slot};
+use crate::stats::tree::{reduce_tree, Node, Shard};
 use crate::stats::Moments;
+use crate::stats::RunResult;
 
 /// Version of the state files' layout.
 pub const STATE_VERSION: u32 = 1;

@@ -4,9 +4,13 @@
 
 use std::fs::File;
 
+use glam::{DMat3, DQuat};
 use polars::prelude::*;
 
-use crate::engine::SampleRows;
+use crate::config::Scene;
+use crate::kernel::{Geometry, LawOut, ACTIVE_SHIFT};
+use crate::lanes::Real;
+use crate::sampler::Inputs;
 
 /// Rows per Parquet row group.
 pub const ROW_GROUP: usize = 1 << 18;
@@ -160,5 +164,148 @@ impl SamplesWriter {
             w.finish()?;
         }
         Ok(self.rows_written)
+    }
+}
+
+/// Per-sample rows of one batch, column-major, in sample order (the columns
+/// of [`sample_columns`]).
+#[derive(Debug, Clone, Default)]
+pub struct SampleRows {
+    pub index: Vec<u64>,
+    pub floats: Vec<Vec<f64>>,
+    pub ints: Vec<Vec<u32>>,
+}
+
+impl SampleRows {
+    pub fn new(floats: usize, ints: usize) -> Self {
+        Self {
+            index: Vec::new(),
+            floats: vec![Vec::new(); floats],
+            ints: vec![Vec::new(); ints],
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// Appends `other`'s rows.
+    pub fn append(&mut self, other: &SampleRows) {
+        self.index.extend_from_slice(&other.index);
+        for (a, b) in self.floats.iter_mut().zip(&other.floats) {
+            a.extend_from_slice(b);
+        }
+        for (a, b) in self.ints.iter_mut().zip(&other.ints) {
+            a.extend_from_slice(b);
+        }
+    }
+}
+
+/// Names of the per-sample columns after `sample` (u64): the f64 columns,
+/// then the u32 columns. Units: m/s, rad/s, J, N·s; `active_LAW` is the
+/// active-set bitmask over the touching planes in scene order, `flags_LAW`
+/// the kernel status bits (see README).
+pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+    let planes: Vec<&str> = scene
+        .touching()
+        .iter()
+        .map(|&i| scene.planes()[i].name.as_str())
+        .collect();
+    let mut f: Vec<String> = [
+        "q_w",
+        "q_x",
+        "q_y",
+        "q_z",
+        "v_x",
+        "v_y",
+        "v_z",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "energy_before",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    f.extend(planes.iter().map(|p| format!("vn_before_{p}")));
+    let mut ints = Vec::new();
+    for law in scene.laws() {
+        let l = law.name();
+        f.push(format!("energy_after_{l}"));
+        f.push(format!("energy_ratio_{l}"));
+        for c in ["x", "y", "z"] {
+            f.push(format!("v_after_{c}_{l}"));
+        }
+        for c in ["x", "y", "z"] {
+            f.push(format!("omega_after_{c}_{l}"));
+        }
+        f.extend(planes.iter().map(|p| format!("impulse_{l}_{p}")));
+        f.extend(planes.iter().map(|p| format!("vn_after_{l}_{p}")));
+        ints.push(format!("active_{l}"));
+        ints.push(format!("flags_{l}"));
+    }
+    (f, ints)
+}
+
+/// Appends a block's rows (after recomputation) in the order of
+/// [`sample_columns`].
+pub fn push_rows<T: Real, const N: usize>(
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    outs: &[Box<LawOut<T, N>>],
+    first: u64,
+    count: usize,
+    rows: &mut SampleRows,
+) {
+    for s in 0..count {
+        rows.index.push(first + s as u64);
+        let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
+        let q = DQuat::from_mat3(&a);
+        let q = if q.w < 0.0 { -q } else { q };
+        let mut f = rows.floats.iter_mut();
+        let mut put = |v: f64| f.next().expect("column count").push(v);
+        for v in [q.w, q.x, q.y, q.z] {
+            put(v);
+        }
+        for k in 0..3 {
+            put(x.v[k][s].to_f64());
+        }
+        for k in 0..3 {
+            put(x.w[k][s].to_f64());
+        }
+        let t0 = geo.t_before[s].to_f64();
+        put(t0);
+        for i in 0..N {
+            put(geo.vn[i][s].to_f64());
+        }
+        for out in outs {
+            let t1 = out.t_after[s].to_f64();
+            put(t1);
+            put(t1 / t0);
+            for k in 0..3 {
+                put(out.v_after[k][s].to_f64());
+            }
+            for k in 0..3 {
+                put(out.w_after[k][s].to_f64());
+            }
+            for i in 0..N {
+                put(out.lambda[i][s].to_f64());
+            }
+            for i in 0..N {
+                put(out.vn_after[i][s].to_f64());
+            }
+        }
+        let mut ints = rows.ints.iter_mut();
+        for out in outs {
+            let st = out.status[s];
+            ints.next()
+                .expect("column count")
+                .push((st >> ACTIVE_SHIFT) & ((1 << N) - 1));
+            ints.next().expect("column count").push(st);
+        }
     }
 }

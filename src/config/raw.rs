@@ -1,5 +1,5 @@
 //! Scene files as written (TOML, serde, unknown fields rejected). Nothing
-//! here is validated beyond its type: [`crate::scene::Scene`] does that in
+//! here is validated beyond its type: [`crate::config::Scene`] does that in
 //! one place (ripgrep's raw → validated split).
 
 use serde::{Deserialize, Serialize};

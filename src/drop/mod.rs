@@ -15,15 +15,16 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
-use crate::lanes::{CounterRng, Real};
+use crate::config::Scene;
+use crate::lanes::Real;
+use crate::output::summary::{active_set_name, StatSummary};
 use crate::physics::{
     solve_impact, time_of_impact, Ellipsoid, Impact, ImpactOutcome, Law, Motion, Plane, Pose,
     Rotation, State,
 };
+use crate::sampler::rng::CounterRng;
 use crate::sampler::Sampler;
-use crate::scene::Scene;
 use crate::stats::Moments;
-use crate::summary::{active_set_name, StatSummary};
 
 /// Tolerances at which the share of simultaneous impacts is reported (m).
 pub const SIMULTANEITY_TOLERANCES: [f64; 12] = [
@@ -297,7 +298,7 @@ pub fn run_drop(scene: &Scene, threads: usize) -> Result<DropRun, rayon::ThreadP
         .num_threads(threads)
         .build()?;
     let sampler = Sampler::new(scene);
-    let boxes = CounterRng::new(scene.seed() ^ 0xd20b_0c5e_5eed_0001, 3);
+    let boxes = crate::sampler::rng::drop_start_rng(scene.seed());
     let n_planes = scene.planes().len();
     let bounces = scene.effects().bounces as usize;
     let batch = scene.batch_size().min(4096);
@@ -588,7 +589,7 @@ pub fn write_outputs(
     dir: &std::path::Path,
     started: std::time::SystemTime,
 ) -> Result<Vec<std::path::PathBuf>, crate::output::OutputError> {
-    use crate::manifest::{utc_string, Machine, Manifest};
+    use crate::output::manifest::{Manifest, Timing};
     use crate::output::{schema_metadata, write_parquet, OutputError, Staging};
     let mut staging = Staging::new(dir);
     let path = |n: &str| dir.join(n).display().to_string();
@@ -603,26 +604,15 @@ pub fn write_outputs(
     }
     staging.write_json("summary.json", &run.summary_json(scene))?;
     files.push("summary.json".into());
-    let raw = scene.raw().clone();
-    let manifest = Manifest {
-        schema_version: crate::SCHEMA_VERSION,
-        impactmc_version: env!("CARGO_PKG_VERSION"),
-        git_commit: env!("IMPACTMC_GIT_COMMIT"),
-        seed: raw.seed,
-        samples: raw.samples,
-        scene: raw,
-        points: 1,
-        started_utc: utc_string(started),
-        finished_utc: utc_string(std::time::SystemTime::now()),
+    let timing = Timing {
+        started,
+        finished: std::time::SystemTime::now(),
         wall_seconds: run.wall_seconds,
         cpu_seconds: None,
         threads: run.threads,
-        machine: Machine::current(),
-        files,
-        effects: Some(scene.effects().clone()),
-        shard: None,
-        merge: None,
     };
+    let mut manifest = Manifest::new(scene.raw(), scene.effects(), 1, timing);
+    manifest.files = files;
     staging.write_json("manifest.json", &manifest)?;
     staging.commit()
 }

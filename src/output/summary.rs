@@ -4,8 +4,9 @@
 use serde::{Deserialize, Serialize};
 use serde_json::Map;
 
-use crate::engine::{LawAcc, RunResult};
-use crate::scene::Scene;
+use crate::config::Scene;
+use crate::stats::accumulators::LawAcc;
+use crate::stats::RunResult;
 use crate::stats::{Moments, Stat};
 
 /// Mean, spread and quantiles of one statistic. Quantiles are absent where

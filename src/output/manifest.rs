@@ -3,9 +3,9 @@
 
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use crate::config::RawScene;
+use crate::config::{Effects, RawScene};
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Machine {
@@ -61,13 +61,50 @@ pub struct Manifest {
     pub files: Vec<String>,
     /// The effects simulated, declared and derived (scene.rs `Effects`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub effects: Option<crate::scene::Effects>,
+    pub effects: Option<crate::config::Effects>,
     /// A shard run (`--shard I/N`): its index and count.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shard: Option<ShardRef>,
     /// A merge of shards (`impactmc merge`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub merge: Option<MergeInfo>,
+}
+
+/// When and how a run ran, for its manifest.
+#[derive(Debug, Clone, Copy)]
+pub struct Timing {
+    pub started: SystemTime,
+    pub finished: SystemTime,
+    pub wall_seconds: f64,
+    pub cpu_seconds: Option<f64>,
+    pub threads: usize,
+}
+
+impl Manifest {
+    /// The manifest of every kind of run folder: this build, this machine,
+    /// the scene with every default explicit and its effects. `files`,
+    /// `shard` and `merge` are the caller's to fill in.
+    pub fn new(raw: &RawScene, effects: &Effects, points: usize, timing: Timing) -> Self {
+        Self {
+            schema_version: crate::SCHEMA_VERSION,
+            impactmc_version: env!("CARGO_PKG_VERSION"),
+            git_commit: env!("IMPACTMC_GIT_COMMIT"),
+            scene: raw.clone(),
+            seed: raw.seed,
+            samples: raw.samples,
+            points,
+            started_utc: utc_string(timing.started),
+            finished_utc: utc_string(timing.finished),
+            wall_seconds: timing.wall_seconds,
+            cpu_seconds: timing.cpu_seconds,
+            threads: timing.threads,
+            machine: Machine::current(),
+            files: Vec::new(),
+            effects: Some(effects.clone()),
+            shard: None,
+            merge: None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -115,6 +152,60 @@ pub fn utc_string(t: SystemTime) -> String {
     )
 }
 
+/// What `impactmc inspect` reads back from a finished run folder's
+/// `manifest.json`.
+#[derive(Debug, Clone, Deserialize)]
+pub struct ManifestHead {
+    pub scene: SceneName,
+    pub seed: u64,
+    pub samples: u64,
+    pub points: usize,
+    pub impactmc_version: String,
+    pub git_commit: String,
+    pub schema_version: u32,
+    pub started_utc: String,
+    pub finished_utc: String,
+    pub wall_seconds: f64,
+    pub threads: usize,
+    pub machine: MachineHead,
+    pub files: Vec<String>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+pub struct SceneName {
+    pub name: String,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+pub struct MachineHead {
+    pub cpu: String,
+    pub hostname: String,
+}
+
+impl ManifestHead {
+    /// The header `impactmc inspect` prints for the folder `dir`.
+    pub fn text(&self, dir: &std::path::Path) -> String {
+        format!(
+            "run folder {}\n  scene {} (seed {}, {} samples per point, {} point(s))\n  impactmc {} ({}), schema {}\n  started {}, finished {}, wall {:.3} s, {} threads on {} ({})\n  files: {}\n",
+            dir.display(),
+            self.scene.name,
+            self.seed,
+            self.samples,
+            self.points,
+            self.impactmc_version,
+            self.git_commit,
+            self.schema_version,
+            self.started_utc,
+            self.finished_utc,
+            self.wall_seconds,
+            self.threads,
+            self.machine.cpu,
+            self.machine.hostname,
+            self.files.join(", "),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -125,4 +216,15 @@ mod tests {
         assert_eq!(utc_string(t), "2026-11-18T11:06:40Z");
         assert_eq!(utc_string(UNIX_EPOCH), "1970-01-01T00:00:00Z");
     }
+}
+
+/// CPU time (user + system) of this process so far, from
+/// `/proc/self/stat`; `None` where that is not available.
+pub fn process_cpu_seconds() -> Option<f64> {
+    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
 }

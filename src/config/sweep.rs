@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::config::RawScene;
-use crate::scene::{Overrides, Scene, SceneError};
+use crate::config::{Overrides, Scene, SceneError};
 
 /// One axis of the grid: a field path and its values.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,0 +1,129 @@
+//! The flight ladder: flight step and time-of-impact tolerance of a drop
+//! scene's first impact.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::config::Scene;
+
+use super::*;
+
+/// Time, v⁺, ω⁺ and energy ratio of a first impact.
+type FirstImpact = (f64, DVec3, DVec3, f64);
+
+/// The flight rungs of a drop scene: the first impact of `knobs.samples`
+/// samples with each RK4 step of flight rotation and each time-of-impact
+/// tolerance, against a reference ten times finer than the finest of both
+/// (the scene's law). Cost: one-thread ns per sample of the first impact.
+pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)) -> Ladder {
+    use crate::drop::{first_impact, start_of};
+    let law = scene.laws()[0];
+    let sampler = crate::sampler::Sampler::new(scene);
+    let boxes = crate::sampler::rng::drop_start_rng(scene.seed());
+    let starts: Vec<_> = (0..knobs.samples as u64)
+        .map(|i| start_of(scene, &sampler, &boxes, i))
+        .collect();
+    let fine_step = knobs
+        .flight_steps
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+        / 10.0;
+    let fine_tol = knobs
+        .toi_tolerances
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+        / 10.0;
+    let run = |step: f64, tol: f64| -> (Vec<Option<FirstImpact>>, f64) {
+        let timed = starts.len().min(200);
+        let t0 = Instant::now();
+        for s in &starts[..timed] {
+            std::hint::black_box(first_impact(scene, law, s, step, tol));
+        }
+        let ns = t0.elapsed().as_secs_f64() * 1e9 / timed as f64;
+        (
+            starts
+                .par_iter()
+                .map(|s| first_impact(scene, law, s, step, tol))
+                .collect(),
+            ns,
+        )
+    };
+    progress(&format!(
+        "flight reference: step {fine_step:e} s, TOI tolerance {fine_tol:e} m, {} samples",
+        knobs.samples
+    ));
+    let (reference, _) = run(fine_step, fine_tol);
+    let compare = |got: &[Option<FirstImpact>]| -> (Errors, (f64, f64)) {
+        let mut a = Vec::new();
+        let mut b = Vec::new();
+        let mut dt = Vec::new();
+        for (x, y) in got.iter().zip(&reference) {
+            if let (Some(x), Some(y)) = (x, y) {
+                a.push(Post {
+                    v: x.1,
+                    w: x.2,
+                    ratio: x.3,
+                });
+                b.push(Post {
+                    v: y.1,
+                    w: y.2,
+                    ratio: y.3,
+                });
+                dt.push((x.0 - y.0).abs());
+            }
+        }
+        (errors(&a, &b), rms_p99(dt))
+    };
+    let default_tol = scene.effects().toi_tolerance;
+    let default_step = scene.effects().flight_step;
+    let mut rungs = Vec::new();
+    for &step in &knobs.flight_steps {
+        let (got, ns) = run(step, default_tol);
+        let (e, t) = compare(&got);
+        progress(&format!(
+            "flight step {step:e} s: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
+            e.v_rms
+        ));
+        rungs.push(Rung {
+            family: "flight_step".into(),
+            rung: format!("step {step:e} s"),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
+            point_error: None,
+            vs_flight_reference: Some(e),
+            time_error: Some(t),
+        });
+    }
+    for &tol in &knobs.toi_tolerances {
+        let (got, ns) = run(default_step, tol);
+        let (e, t) = compare(&got);
+        progress(&format!(
+            "TOI tolerance {tol:e} m: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
+            e.v_rms
+        ));
+        rungs.push(Rung {
+            family: "toi_tolerance".into(),
+            rung: format!("toi {tol:e} m"),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
+            point_error: None,
+            vs_flight_reference: Some(e),
+            time_error: Some(t),
+        });
+    }
+    Ladder {
+        scene: scene.name().to_string(),
+        law_for_counts: law.name(),
+        knobs,
+        rungs,
+        counts: Vec::new(),
+    }
+}

@@ -1,0 +1,238 @@
+//! The contact ladder: rigid laws, solver settings and precisions against
+//! the compliant reference, on one scene's samples.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::DVec3;
+
+use crate::config::{load_scene, parse_law, Overrides, Precision, Scene, SceneError};
+use crate::engine::{evaluate_samples, run, RunOptions};
+use crate::physics::{support_point_lagrange, ContactGeometry, Law, Pose, State};
+
+use super::*;
+
+fn variant(
+    path: &Path,
+    laws: Vec<String>,
+    precision: Precision,
+    samples: u64,
+) -> Result<Scene, SceneError> {
+    load_scene(
+        path,
+        &Overrides {
+            laws: Some(laws),
+            precision: Some(precision),
+            samples: Some(samples),
+            ..Default::default()
+        },
+    )
+}
+
+/// Nanoseconds per sample of an end-to-end run on one thread.
+fn timed_run(scene: &Scene) -> f64 {
+    let r = run(
+        scene,
+        &RunOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )
+    .expect("a one-thread pool");
+    r.wall_seconds * 1e9 / scene.samples() as f64
+}
+
+/// Runs the ladder on the scene at `path` (its `[accuracy]` and
+/// `[material]` knobs). `progress` receives one line per rung.
+pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
+    let file = path.display().to_string();
+    let base = load_scene(path, &Overrides::default())?;
+    let knobs = Knobs::from_raw(&file, base.raw())?;
+    if base.drop_box().is_some() {
+        return Ok(flight_ladder(&base, knobs, progress));
+    }
+    let n = knobs.samples;
+    let newton64 = variant(
+        path,
+        vec!["newton".into()],
+        Precision::F64,
+        knobs.timing_samples,
+    )?;
+    let reference_outcomes = evaluate_samples(&newton64, Law::Newton, 0, n);
+    let inputs: Vec<(Pose, State)> = reference_outcomes
+        .iter()
+        .map(|o| sample_input(&newton64, o))
+        .collect();
+    let newton_posts: Vec<Post> = reference_outcomes.iter().map(post_of).collect();
+    progress(&format!(
+        "reference: compliant, {} RK4 steps per contact, E* = {:e} Pa, {n} samples",
+        knobs.reference_steps, knobs.effective_modulus
+    ));
+    let (reference, _) = compliant_posts(
+        &newton64,
+        &inputs,
+        knobs.effective_modulus,
+        knobs.reference_steps,
+    );
+    let mut rungs = Vec::new();
+
+    let mut laws: Vec<String> = vec!["paper".into()];
+    laws.extend(knobs.pgs_sweeps.iter().map(|s| format!("pgs{s}")));
+    laws.extend(["newton".into(), "poisson".into()]);
+    for name in &laws {
+        let law = parse_law(name).expect("ladder law names are valid");
+        let scene = variant(
+            path,
+            vec![name.clone()],
+            Precision::F64,
+            knobs.timing_samples,
+        )?;
+        let posts: Vec<Post> = evaluate_samples(&scene, law, 0, n)
+            .iter()
+            .map(post_of)
+            .collect();
+        let ns = timed_run(&scene);
+        progress(&format!("law {name}: {ns:.1} ns/sample"));
+        rungs.push(Rung {
+            family: "law".into(),
+            rung: name.clone(),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: errors(&posts, &reference),
+            vs_newton: errors(&posts, &newton_posts),
+            point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
+        });
+    }
+    for &steps in &knobs.compliant_steps {
+        let (posts, ns) = compliant_posts(&newton64, &inputs, knobs.effective_modulus, steps);
+        progress(&format!("compliant {steps} steps: {ns:.0} ns/sample"));
+        rungs.push(Rung {
+            family: "compliant".into(),
+            rung: format!("compliant{steps}"),
+            precision: "f64".into(),
+            ns_per_sample: ns,
+            vs_compliant: errors(&posts, &reference),
+            vs_newton: errors(&posts, &newton_posts),
+            point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
+        });
+    }
+    {
+        let scene = variant(
+            path,
+            vec!["newton".into()],
+            Precision::F32,
+            knobs.timing_samples,
+        )?;
+        let posts: Vec<Post> = evaluate_samples(&scene, Law::Newton, 0, n)
+            .iter()
+            .map(post_of)
+            .collect();
+        let ns = timed_run(&scene);
+        progress(&format!("newton f32: {ns:.1} ns/sample"));
+        rungs.push(Rung {
+            family: "precision".into(),
+            rung: "newton".into(),
+            precision: "f32".into(),
+            ns_per_sample: ns,
+            vs_compliant: errors(&posts, &reference),
+            vs_newton: errors(&posts, &newton_posts),
+            point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
+        });
+    }
+    rungs.extend(contact_point_rungs(&newton64, &inputs));
+
+    let law_for_counts = base.laws()[0].name();
+    let mut counts = Vec::new();
+    for &samples in &knobs.sample_counts {
+        let scene = variant(
+            path,
+            vec![law_for_counts.clone()],
+            base.precision(),
+            samples,
+        )?;
+        let r = run(&scene, &RunOptions::default()).expect("thread pool");
+        let m = &r.acc.laws[0].energy_ratio.moments;
+        progress(&format!(
+            "N = {samples}: {:.3} s, ci95 {:.2e}",
+            r.wall_seconds,
+            m.ci95()
+        ));
+        counts.push(CountRow {
+            samples,
+            wall_seconds: r.wall_seconds,
+            threads: r.threads,
+            mean: m.mean(),
+            ci95: m.ci95(),
+        });
+    }
+    Ok(Ladder {
+        scene: base.name().to_string(),
+        law_for_counts,
+        knobs,
+        rungs,
+        counts,
+    })
+}
+
+/// Closed-form support point against the paper's Lagrange route, on the
+/// touching planes of every sample: error of the Lagrange point relative to
+/// the closed form (in units of the body's length scale), and time per call.
+pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung> {
+    let planes = scene.touching_planes();
+    let body = scene.body();
+    let l = body.length_scale();
+    let mut errs = Vec::new();
+    for (pose, _) in inputs {
+        for p in &planes {
+            let g = ContactGeometry::new(body, pose.rotation, pose.centre, p);
+            let (pt, _) = support_point_lagrange(body, pose.rotation, pose.centre, p);
+            errs.push((pt - g.point).length() / l);
+        }
+    }
+    let calls = (inputs.len() * planes.len()).max(1) as f64;
+    let time = |f: &dyn Fn(&Pose, &crate::physics::Plane) -> DVec3| -> f64 {
+        let reps = 20;
+        let t0 = Instant::now();
+        for _ in 0..reps {
+            for (pose, _) in inputs {
+                for p in &planes {
+                    std::hint::black_box(f(std::hint::black_box(pose), p));
+                }
+            }
+        }
+        t0.elapsed().as_secs_f64() * 1e9 / (calls * reps as f64)
+    };
+    let closed = time(&|pose, p| ContactGeometry::new(body, pose.rotation, pose.centre, p).point);
+    let lagrange = time(&|pose, p| support_point_lagrange(body, pose.rotation, pose.centre, p).0);
+    let (rms, p99) = rms_p99(errs);
+    vec![
+        Rung {
+            family: "contact_point".into(),
+            rung: "closed_form".into(),
+            precision: "f64".into(),
+            ns_per_sample: closed,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
+            point_error: Some((0.0, 0.0)),
+            vs_flight_reference: None,
+            time_error: None,
+        },
+        Rung {
+            family: "contact_point".into(),
+            rung: "lagrange".into(),
+            precision: "f64".into(),
+            ns_per_sample: lagrange,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
+            point_error: Some((rms, p99)),
+            vs_flight_reference: None,
+            time_error: None,
+        },
+    ]
+}

@@ -1,0 +1,329 @@
+//! The accuracy ladder (`impactmc accuracy`): what each rung of accuracy
+//! costs in time, on one scene's samples.
+//!
+//! Every rung is evaluated on the same samples (the scene's first
+//! `accuracy.samples` draws) and compared with the finest compliant run
+//! (the physical reference) and with the exact Newton LCP in f64:
+//! RMS and p99 over samples of |Δv⁺| (m/s), |Δω⁺| (rad/s) and |ΔT⁺/T⁻|.
+//! Costs are end-to-end nanoseconds per sample on one thread: for the rigid
+//! laws and precisions a timed `run` of `accuracy.timing_samples` samples
+//! (sampling, kernel and statistics); for the compliant rungs the
+//! integration itself; for the contact-point rung one support-point
+//! computation per touching plane.
+
+mod flight;
+mod ladder;
+mod report;
+
+pub use flight::flight_ladder;
+pub use ladder::{contact_point_rungs, ladder};
+pub use report::{plot_svg, write_folder};
+
+use std::time::Instant;
+
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+use crate::config::{RawScene, Scene, SceneError};
+use crate::engine::SampleOutcome;
+use crate::physics::{damping_table, solve_compliant_with, CompliantParams, Pose, State};
+
+/// Validated knobs of the ladder.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Knobs {
+    pub samples: usize,
+    pub compliant_steps: Vec<u32>,
+    pub reference_steps: u32,
+    pub pgs_sweeps: Vec<u32>,
+    pub sample_counts: Vec<u64>,
+    pub timing_samples: u64,
+    pub effective_modulus: f64,
+    /// Drop scenes: RK4 steps of flight rotation (s) and time-of-impact
+    /// tolerances (m) to compare; the reference is ten times finer than the
+    /// finest of each.
+    pub flight_steps: Vec<f64>,
+    pub toi_tolerances: Vec<f64>,
+}
+
+fn field_err(file: &str, field: &str, message: String) -> SceneError {
+    SceneError {
+        file: file.to_string(),
+        line: None,
+        field: field.to_string(),
+        message,
+    }
+}
+
+impl Knobs {
+    /// Defaults, then the scene's `[accuracy]` and `[material]`, validated.
+    pub fn from_raw(file: &str, raw: &RawScene) -> Result<Self, SceneError> {
+        let a = raw.accuracy.clone().unwrap_or_default();
+        let k = Knobs {
+            samples: a.samples.unwrap_or(2000) as usize,
+            compliant_steps: a.compliant_steps.unwrap_or(vec![12, 25, 50, 100, 200, 400]),
+            reference_steps: a.reference_steps.unwrap_or(1600),
+            pgs_sweeps: a.pgs_sweeps.unwrap_or(vec![1, 2, 4, 8, 16, 32, 64]),
+            sample_counts: a.sample_counts.unwrap_or(vec![
+                1_000,
+                10_000,
+                100_000,
+                1_000_000,
+                10_000_000,
+                100_000_000,
+            ]),
+            timing_samples: a.timing_samples.unwrap_or(1_000_000),
+            flight_steps: a
+                .flight_steps
+                .clone()
+                .unwrap_or(vec![2e-2, 1e-2, 5e-3, 2e-3, 1e-3]),
+            toi_tolerances: a
+                .toi_tolerances
+                .clone()
+                .unwrap_or(vec![1e-2, 1e-3, 1e-5, 1e-7, 1e-9]),
+            effective_modulus: raw
+                .material
+                .as_ref()
+                .and_then(|m| m.effective_modulus)
+                .unwrap_or(1.15e11),
+        };
+        if !(1..=1_000_000).contains(&k.samples) {
+            return Err(field_err(
+                file,
+                "accuracy.samples",
+                format!("must be in 1..=1000000, got {}", k.samples),
+            ));
+        }
+        for (name, steps) in [("accuracy.compliant_steps", &k.compliant_steps)] {
+            if steps.is_empty() || steps.iter().any(|&s| s < 4) {
+                return Err(field_err(
+                    file,
+                    name,
+                    format!("must be a non-empty list of integers >= 4, got {steps:?}"),
+                ));
+            }
+        }
+        if k.reference_steps < 4 || k.compliant_steps.iter().any(|&s| s >= k.reference_steps) {
+            return Err(field_err(
+                file,
+                "accuracy.reference_steps",
+                format!(
+                    "must exceed every compliant_steps value (the reference is the finest run), got {} with {:?}",
+                    k.reference_steps, k.compliant_steps
+                ),
+            ));
+        }
+        if k.pgs_sweeps.contains(&0) {
+            return Err(field_err(
+                file,
+                "accuracy.pgs_sweeps",
+                format!("sweeps must be >= 1, got {:?}", k.pgs_sweeps),
+            ));
+        }
+        if k.sample_counts.is_empty() || k.sample_counts.iter().any(|&n| n < 2) {
+            return Err(field_err(
+                file,
+                "accuracy.sample_counts",
+                format!("must list counts >= 2, got {:?}", k.sample_counts),
+            ));
+        }
+        for (name, xs) in [
+            ("accuracy.flight_steps", &k.flight_steps),
+            ("accuracy.toi_tolerances", &k.toi_tolerances),
+        ] {
+            if xs.is_empty() || xs.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(field_err(
+                    file,
+                    name,
+                    format!("must list finite numbers > 0, got {xs:?}"),
+                ));
+            }
+        }
+        if k.timing_samples < 1000 {
+            return Err(field_err(
+                file,
+                "accuracy.timing_samples",
+                format!("must be >= 1000, got {}", k.timing_samples),
+            ));
+        }
+        if !(k.effective_modulus.is_finite() && k.effective_modulus > 0.0) {
+            return Err(field_err(
+                file,
+                "material.effective_modulus",
+                format!(
+                    "must be a finite number > 0 (Pa), got {}",
+                    k.effective_modulus
+                ),
+            ));
+        }
+        Ok(k)
+    }
+}
+
+/// Post-impact outcome of one sample under one rung.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Post {
+    pub v: DVec3,
+    pub w: DVec3,
+    pub ratio: f64,
+}
+
+/// RMS and p99 of |Δv⁺|, |Δω⁺| and |ΔT⁺/T⁻| against a reference.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Errors {
+    pub v_rms: f64,
+    pub v_p99: f64,
+    pub w_rms: f64,
+    pub w_p99: f64,
+    pub ratio_rms: f64,
+    pub ratio_p99: f64,
+}
+
+impl Errors {
+    /// For rungs a reference does not apply to (NaN, null in the table).
+    pub const NONE: Errors = Errors {
+        v_rms: f64::NAN,
+        v_p99: f64::NAN,
+        w_rms: f64::NAN,
+        w_p99: f64::NAN,
+        ratio_rms: f64::NAN,
+        ratio_p99: f64::NAN,
+    };
+}
+
+fn rms_p99(mut xs: Vec<f64>) -> (f64, f64) {
+    if xs.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let rms = (xs.iter().map(|x| x * x).sum::<f64>() / xs.len() as f64).sqrt();
+    xs.sort_by(f64::total_cmp);
+    let k = ((0.99 * xs.len() as f64).ceil() as usize).clamp(1, xs.len()) - 1;
+    (rms, xs[k])
+}
+
+/// Errors of `got` against `want`, sample by sample.
+pub fn errors(got: &[Post], want: &[Post]) -> Errors {
+    let (v_rms, v_p99) = rms_p99(
+        got.iter()
+            .zip(want)
+            .map(|(a, b)| (a.v - b.v).length())
+            .collect(),
+    );
+    let (w_rms, w_p99) = rms_p99(
+        got.iter()
+            .zip(want)
+            .map(|(a, b)| (a.w - b.w).length())
+            .collect(),
+    );
+    let (ratio_rms, ratio_p99) = rms_p99(
+        got.iter()
+            .zip(want)
+            .map(|(a, b)| (a.ratio - b.ratio).abs())
+            .collect(),
+    );
+    Errors {
+        v_rms,
+        v_p99,
+        w_rms,
+        w_p99,
+        ratio_rms,
+        ratio_p99,
+    }
+}
+
+fn post_of(o: &SampleOutcome) -> Post {
+    Post {
+        v: DVec3::from_array(o.velocity_after),
+        w: DVec3::from_array(o.omega_after),
+        ratio: o.energy_after / o.energy_before,
+    }
+}
+
+/// The pose and velocities of a sample as drawn (f64 draws).
+pub fn sample_input(scene: &Scene, o: &SampleOutcome) -> (Pose, State) {
+    let rotation = DMat3::from_cols_array(&o.rotation).transpose();
+    (
+        Pose {
+            rotation,
+            centre: scene.centre(rotation),
+        },
+        State {
+            velocity: DVec3::from_array(o.velocity),
+            omega: DVec3::from_array(o.omega),
+        },
+    )
+}
+
+/// Compliant outcomes of the samples with `steps` RK4 steps per contact
+/// duration (in parallel; each sample is independent), and the
+/// single-thread time per sample (ns) measured on the first samples.
+pub fn compliant_posts(
+    scene: &Scene,
+    inputs: &[(Pose, State)],
+    modulus: f64,
+    steps: u32,
+) -> (Vec<Post>, f64) {
+    let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
+    let params = CompliantParams {
+        effective_modulus: modulus,
+        steps_per_contact: steps,
+    };
+    let alpha = damping_table(&planes);
+    let one = |(pose, state): &(Pose, State)| -> Post {
+        match solve_compliant_with(scene.body(), *pose, *state, &planes, params, &alpha) {
+            Ok(o) => Post {
+                v: o.after.velocity,
+                w: o.after.omega,
+                ratio: o.energy_after / o.energy_before,
+            },
+            // Nothing approaching: the body leaves untouched.
+            Err(_) => Post {
+                v: state.velocity,
+                w: state.omega,
+                ratio: 1.0,
+            },
+        }
+    };
+    let timed = inputs.len().min(200);
+    let t0 = Instant::now();
+    for x in &inputs[..timed] {
+        std::hint::black_box(one(x));
+    }
+    let ns = t0.elapsed().as_secs_f64() * 1e9 / timed as f64;
+    (inputs.par_iter().map(one).collect(), ns)
+}
+
+/// One rung of the ladder.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rung {
+    /// `law`, `compliant`, `precision` or `contact_point`.
+    pub family: String,
+    pub rung: String,
+    pub precision: String,
+    pub ns_per_sample: f64,
+    pub vs_compliant: Errors,
+    pub vs_newton: Errors,
+    /// Contact-point rung only: RMS and p99 of |ΔP| / length scale.
+    pub point_error: Option<(f64, f64)>,
+    /// Flight rungs only (drop scenes): first-impact errors against the
+    /// finest flight settings, and RMS and p99 of the impact-time error (s).
+    pub vs_flight_reference: Option<Errors>,
+    pub time_error: Option<(f64, f64)>,
+}
+
+/// One point of the sample-count rung.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CountRow {
+    pub samples: u64,
+    pub wall_seconds: f64,
+    pub threads: usize,
+    pub mean: f64,
+    pub ci95: f64,
+}
+
+pub struct Ladder {
+    pub scene: String,
+    pub law_for_counts: String,
+    pub knobs: Knobs,
+    pub rungs: Vec<Rung>,
+    pub counts: Vec<CountRow>,
+}

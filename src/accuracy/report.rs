@@ -1,0 +1,513 @@
+//! The ladder's report: `accuracy.parquet`, `accuracy.md` and
+//! `accuracy.svg`.
+
+use std::path::Path;
+
+use polars::prelude::*;
+
+use super::*;
+
+impl Ladder {
+    /// `accuracy.parquet`: one row per rung (family `law`, `compliant`,
+    /// `precision`, `contact_point`) and per sample count (family
+    /// `sample_count`); columns that do not apply are null.
+    pub fn frame(&self) -> PolarsResult<DataFrame> {
+        let mut family = Vec::new();
+        let mut rung = Vec::new();
+        let mut precision = Vec::new();
+        let mut ns = Vec::new();
+        let mut cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); 12];
+        let mut point: [Vec<Option<f64>>; 2] = [Vec::new(), Vec::new()];
+        let mut samples = Vec::new();
+        let mut wall = Vec::new();
+        let mut ci = Vec::new();
+        let mut mean = Vec::new();
+        let fin = |x: f64| x.is_finite().then_some(x);
+        for r in &self.rungs {
+            family.push(r.family.clone());
+            rung.push(r.rung.clone());
+            precision.push(r.precision.clone());
+            ns.push(Some(r.ns_per_sample));
+            let e = [r.vs_compliant, r.vs_newton];
+            let vals: Vec<f64> = e
+                .iter()
+                .flat_map(|e| [e.v_rms, e.v_p99, e.w_rms, e.w_p99, e.ratio_rms, e.ratio_p99])
+                .collect();
+            for (c, v) in cols.iter_mut().zip(vals) {
+                c.push(fin(v));
+            }
+            point[0].push(r.point_error.map(|p| p.0));
+            point[1].push(r.point_error.map(|p| p.1));
+            samples.push(Some(self.knobs.samples as u64));
+            wall.push(None);
+            ci.push(None);
+            mean.push(None);
+        }
+        for c in &self.counts {
+            family.push("sample_count".into());
+            rung.push(format!("n{}", c.samples));
+            precision.push(String::new());
+            ns.push(Some(
+                c.wall_seconds * 1e9 * c.threads as f64 / c.samples as f64,
+            ));
+            for col in cols.iter_mut() {
+                col.push(None);
+            }
+            point[0].push(None);
+            point[1].push(None);
+            samples.push(Some(c.samples));
+            wall.push(Some(c.wall_seconds));
+            ci.push(Some(c.ci95));
+            mean.push(Some(c.mean));
+        }
+        let names = [
+            "v_after_rms_vs_compliant",
+            "v_after_p99_vs_compliant",
+            "omega_after_rms_vs_compliant",
+            "omega_after_p99_vs_compliant",
+            "energy_ratio_rms_vs_compliant",
+            "energy_ratio_p99_vs_compliant",
+            "v_after_rms_vs_newton",
+            "v_after_p99_vs_newton",
+            "omega_after_rms_vs_newton",
+            "omega_after_p99_vs_newton",
+            "energy_ratio_rms_vs_newton",
+            "energy_ratio_p99_vs_newton",
+        ];
+        let height = family.len();
+        let mut columns = vec![
+            Column::new("family".into(), family),
+            Column::new("rung".into(), rung),
+            Column::new("precision".into(), precision),
+            Column::new("ns_per_sample".into(), ns),
+            Column::new("samples".into(), samples),
+        ];
+        for (name, c) in names.iter().zip(cols) {
+            columns.push(Column::new((*name).into(), c));
+        }
+        let [p0, p1] = point;
+        columns.push(Column::new("point_error_rms".into(), p0));
+        columns.push(Column::new("point_error_p99".into(), p1));
+        let fl = |f: &dyn Fn(&Rung) -> Option<f64>| -> Vec<Option<f64>> {
+            self.rungs
+                .iter()
+                .map(f)
+                .chain(self.counts.iter().map(|_| None))
+                .collect()
+        };
+        columns.push(Column::new(
+            "v_after_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.v_rms)),
+        ));
+        columns.push(Column::new(
+            "v_after_p99_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.v_p99)),
+        ));
+        columns.push(Column::new(
+            "omega_after_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.w_rms)),
+        ));
+        columns.push(Column::new(
+            "energy_ratio_rms_vs_flight_reference".into(),
+            fl(&|r| r.vs_flight_reference.map(|e| e.ratio_rms)),
+        ));
+        columns.push(Column::new(
+            "impact_time_rms_error".into(),
+            fl(&|r| r.time_error.map(|t| t.0)),
+        ));
+        columns.push(Column::new(
+            "impact_time_p99_error".into(),
+            fl(&|r| r.time_error.map(|t| t.1)),
+        ));
+        columns.push(Column::new("wall_seconds".into(), wall));
+        columns.push(Column::new("energy_ratio_mean".into(), mean));
+        columns.push(Column::new("energy_ratio_ci95".into(), ci));
+        DataFrame::new(height, columns)
+    }
+
+    /// The Markdown report.
+    pub fn markdown(&self, header: &str) -> String {
+        let mut s = String::new();
+        s.push_str(&format!(
+            "# Accuracy ladder: {}\n\n{header}\n\n",
+            self.scene
+        ));
+        if self.rungs.iter().any(|r| r.vs_flight_reference.is_some()) {
+            s.push_str(&format!(
+                "Drop scene: the first impact of the same {} samples with each flight setting, against a reference ten times finer than the finest step and tolerance. Errors: RMS and p99 of |Δv⁺| (m/s), RMS of |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|, and of the impact time (s). Cost: one-thread ns per sample (flight, time of impact and impact).\n\n| rung | ns/sample | v⁺ RMS | v⁺ p99 | ω⁺ RMS | T⁺/T⁻ RMS | impact time RMS | impact time p99 |\n|---|---|---|---|---|---|---|---|\n",
+                self.knobs.samples
+            ));
+            let g = |x: f64| {
+                if x.is_finite() {
+                    format!("{x:.2e}")
+                } else {
+                    "–".into()
+                }
+            };
+            for r in &self.rungs {
+                if let (Some(e), Some(t)) = (r.vs_flight_reference, r.time_error) {
+                    s.push_str(&format!(
+                        "| {} | {:.0} | {} | {} | {} | {} | {} | {} |\n",
+                        r.rung,
+                        r.ns_per_sample,
+                        g(e.v_rms),
+                        g(e.v_p99),
+                        g(e.w_rms),
+                        g(e.ratio_rms),
+                        g(t.0),
+                        g(t.1)
+                    ));
+                }
+            }
+            return s;
+        }
+        s.push_str(&format!(
+            "Errors over the same {} samples, against the finest compliant run ({} RK4 steps per contact, E* = {:e} Pa) and against the exact Newton LCP in f64: RMS and p99 of |Δv⁺| (m/s), |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|. Cost: end-to-end ns per sample on one thread (rigid laws: a timed run of {} samples with sampling and statistics; compliant: the integration alone).\n\n",
+            self.knobs.samples, self.knobs.reference_steps, self.knobs.effective_modulus, self.knobs.timing_samples
+        ));
+        s.push_str("| rung | precision | ns/sample | v⁺ RMS vs compliant | v⁺ p99 | ω⁺ RMS | T⁺/T⁻ RMS | v⁺ RMS vs newton | ω⁺ RMS vs newton | T⁺/T⁻ RMS vs newton |\n|---|---|---|---|---|---|---|---|---|---|\n");
+        let g = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.2e}")
+            } else {
+                "–".into()
+            }
+        };
+        for r in self.rungs.iter().filter(|r| r.family != "contact_point") {
+            let (c, n) = (r.vs_compliant, r.vs_newton);
+            s.push_str(&format!(
+                "| {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.rung,
+                r.precision,
+                r.ns_per_sample,
+                g(c.v_rms),
+                g(c.v_p99),
+                g(c.w_rms),
+                g(c.ratio_rms),
+                g(n.v_rms),
+                g(n.w_rms),
+                g(n.ratio_rms)
+            ));
+        }
+        s.push_str("\n**Contact point** (per touching plane; error of the point relative to the closed form, in units of the body's largest semi-axis):\n\n| route | ns/call | error RMS | error p99 |\n|---|---|---|---|\n");
+        for r in self.rungs.iter().filter(|r| r.family == "contact_point") {
+            let (a, b) = r.point_error.unwrap_or((f64::NAN, f64::NAN));
+            s.push_str(&format!(
+                "| {} | {:.1} | {} | {} |\n",
+                r.rung,
+                r.ns_per_sample,
+                g(a),
+                g(b)
+            ));
+        }
+        s.push_str(&format!(
+            "\n**Sample count** ({} law, all cores): the 95 % CI half-width of the mean energy ratio against wall time.\n\n| N | wall (s) | mean | ci95 | ci95·√N |\n|---|---|---|---|---|\n",
+            self.law_for_counts
+        ));
+        for c in &self.counts {
+            s.push_str(&format!(
+                "| {} | {:.3} | {:.6} | {:.2e} | {:.3} |\n",
+                c.samples,
+                c.wall_seconds,
+                c.mean,
+                c.ci95,
+                c.ci95 * (c.samples as f64).sqrt()
+            ));
+        }
+        s
+    }
+
+    /// The rungs on the Pareto front of (cost, v⁺ error vs compliant):
+    /// none is both cheaper and at least as accurate.
+    pub fn pareto(&self) -> Vec<&Rung> {
+        let mut pts: Vec<&Rung> = self
+            .rungs
+            .iter()
+            .filter(|r| {
+                r.vs_compliant.v_rms.is_finite()
+                    && r.rung != format!("compliant{}", self.knobs.reference_steps)
+            })
+            .collect();
+        pts.sort_by(|a, b| a.ns_per_sample.total_cmp(&b.ns_per_sample));
+        let mut front: Vec<&Rung> = Vec::new();
+        for r in pts {
+            if front
+                .last()
+                .is_none_or(|f| r.vs_compliant.v_rms < f.vs_compliant.v_rms)
+            {
+                front.push(r);
+            }
+        }
+        front
+    }
+}
+
+/// The log-log plot: error against ns/sample, one labelled point per rung
+/// with the Pareto front (left), and the confidence-interval half-width
+/// against wall time with its 1/√N line (right). SVG text needs no font
+/// files (plotters' SVG backend writes `<text>` elements).
+pub fn plot_svg(ladder: &Ladder) -> Result<String, String> {
+    let mut svg = String::new();
+    draw(ladder, &mut svg)?;
+    Ok(svg)
+}
+
+fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
+    use plotters::prelude::*;
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let root = SVGBackend::with_string(svg, (1400, 640)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let (left, right) = root.split_horizontally(860);
+
+    let pts: Vec<&Rung> = ladder
+        .rungs
+        .iter()
+        .filter(|r| r.vs_compliant.v_rms.is_finite() && r.vs_compliant.v_rms > 0.0)
+        .collect();
+    // Rigid rungs against exact Newton (hollow squares): how far each
+    // solver setting is from the LCP it approximates.
+    let vs_newton: Vec<&Rung> = ladder
+        .rungs
+        .iter()
+        .filter(|r| {
+            r.family != "compliant" && r.vs_newton.v_rms.is_finite() && r.vs_newton.v_rms > 0.0
+        })
+        .collect();
+    let span = |xs: &mut dyn Iterator<Item = f64>| -> (f64, f64) {
+        let (lo, hi) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+        (lo / 2.0, hi * 2.0)
+    };
+    // Drop scenes: flight rungs against the finest flight settings.
+    let flight: Vec<(&Rung, f64)> = ladder
+        .rungs
+        .iter()
+        .filter_map(|r| {
+            let e = r.vs_flight_reference?.v_rms;
+            (e.is_finite() && e > 0.0).then_some((r, e))
+        })
+        .collect();
+    let (x0, x1) = span(
+        &mut pts
+            .iter()
+            .chain(vs_newton.iter())
+            .map(|r| r.ns_per_sample)
+            .chain(flight.iter().map(|(r, _)| r.ns_per_sample)),
+    );
+    let (y0, y1) = span(
+        &mut pts
+            .iter()
+            .map(|r| r.vs_compliant.v_rms)
+            .chain(vs_newton.iter().map(|r| r.vs_newton.v_rms))
+            .chain(flight.iter().map(|(_, e)| *e)),
+    );
+    if !(x0 < x1 && y0 < y1) {
+        return Err("nothing to plot: every rung's error is zero or missing".into());
+    }
+    let mut chart = ChartBuilder::on(&left)
+        .caption(
+            format!("{}: error vs cost per rung", ladder.scene),
+            ("sans-serif", 22),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(75)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .x_desc("ns per sample, one thread (log)")
+        .y_desc("RMS |Δv⁺|, m/s (log): ● vs finest compliant, □ vs exact Newton")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .draw()
+        .map_err(|x| e(&x))?;
+    let front: Vec<(f64, f64)> = ladder
+        .pareto()
+        .iter()
+        .map(|r| (r.ns_per_sample, r.vs_compliant.v_rms))
+        .collect();
+    chart
+        .draw_series(LineSeries::new(front, RED.stroke_width(2)))
+        .map_err(|x| e(&x))?
+        .label("Pareto front")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    // Labels are skipped where one is already close (the table has them all).
+    let mut placed: Vec<(f64, f64)> = Vec::new();
+    let mut label_for = |r: &Rung, y: f64| -> String {
+        let (lx, ly) = (r.ns_per_sample.log10(), y.log10());
+        if placed
+            .iter()
+            .any(|&(px, py)| (px - lx).abs() < 0.25 && (py - ly).abs() < 0.12)
+        {
+            return String::new();
+        }
+        placed.push((lx, ly));
+        if r.family == "precision" {
+            format!("{} {}", r.rung, r.precision)
+        } else {
+            r.rung.clone()
+        }
+    };
+    for (family, colour) in [("law", BLUE), ("compliant", GREEN), ("precision", MAGENTA)] {
+        let sel: Vec<&&Rung> = pts.iter().filter(|r| r.family == family).collect();
+        let elems: Vec<_> = sel
+            .iter()
+            .map(|r| {
+                let (x, y) = (r.ns_per_sample, r.vs_compliant.v_rms);
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 4, colour.filled())
+                    + Text::new(label_for(r, y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs compliant"))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+        let sel: Vec<&&Rung> = vs_newton.iter().filter(|r| r.family == family).collect();
+        if sel.is_empty() {
+            continue;
+        }
+        let elems: Vec<_> = sel
+            .iter()
+            .map(|r| {
+                let (x, y) = (r.ns_per_sample, r.vs_newton.v_rms);
+                EmptyElement::at((x, y))
+                    + Rectangle::new([(-4, -4), (4, 4)], colour.stroke_width(1))
+                    + Text::new(label_for(r, y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs newton"))
+            .legend(move |(x, y)| {
+                Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], colour.stroke_width(1))
+            });
+    }
+    for (family, colour) in [("flight_step", CYAN), ("toi_tolerance", BLACK)] {
+        let elems: Vec<_> = flight
+            .iter()
+            .filter(|(r, _)| r.family == family)
+            .map(|(r, y)| {
+                EmptyElement::at((r.ns_per_sample, *y))
+                    + TriangleMarker::new((0, 0), 5, colour.filled())
+                    + Text::new(label_for(r, *y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        if elems.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs finest flight"))
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(|x| e(&x))?;
+
+    let cs: Vec<&CountRow> = ladder.counts.iter().filter(|c| c.ci95 > 0.0).collect();
+    if !cs.is_empty() {
+        let (x0, x1) = span(&mut cs.iter().map(|c| c.wall_seconds.max(1e-6)));
+        let (y0, y1) = span(&mut cs.iter().map(|c| c.ci95));
+        let mut chart = ChartBuilder::on(&right)
+            .caption("CI95 half-width vs wall time", ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(75)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .x_desc("wall seconds, all cores (log)")
+            .y_desc("95 % CI of mean T⁺/T⁻ (log)")
+            .x_label_formatter(&|x| format!("{x:.0e}"))
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .draw()
+            .map_err(|x| e(&x))?;
+        // 1/√N through the largest N, drawn against the measured walls.
+        let last = cs[cs.len() - 1];
+        let c = last.ci95 * (last.samples as f64).sqrt();
+        chart
+            .draw_series(LineSeries::new(
+                cs.iter()
+                    .map(|r| (r.wall_seconds.max(1e-6), c / (r.samples as f64).sqrt())),
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|x| e(&x))?
+            .label("σ·1.96/√N")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+        chart
+            .draw_series(cs.iter().map(|r| {
+                EmptyElement::at((r.wall_seconds.max(1e-6), r.ci95))
+                    + Circle::new((0, 0), 4, BLUE.filled())
+                    + Text::new(
+                        format!("N={:.0e}", r.samples as f64),
+                        (6, -12),
+                        ("sans-serif", 13),
+                    )
+            }))
+            .map_err(|x| e(&x))?;
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()
+            .map_err(|x| e(&x))?;
+    }
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}
+
+/// Writes a ladder's folder (`accuracy.parquet`, `accuracy.md`,
+/// `accuracy.svg`, staged and renamed together) and returns the markdown.
+/// `scene` is the scene file, named in the regeneration command.
+pub fn write_folder(
+    ladder: &Ladder,
+    scene: &Path,
+    dir: &Path,
+) -> Result<String, crate::output::OutputError> {
+    use crate::output::manifest::{utc_string, Machine};
+    use crate::output::{schema_metadata, write_parquet, OutputError, Staging};
+    let machine = Machine::current();
+    let header = format!(
+        "Regenerate with `cargo run --release -- accuracy {} --out {} --force`. Machine: {} ({} logical cores, {}). Date: {}. impactmc {} ({}).",
+        scene.display(),
+        dir.display(),
+        machine.cpu,
+        machine.logical_cores,
+        machine.os,
+        &utc_string(std::time::SystemTime::now())[..10],
+        env!("CARGO_PKG_VERSION"),
+        env!("IMPACTMC_GIT_COMMIT"),
+    );
+    let md = ladder.markdown(&header);
+    let target = |name: &str| dir.join(name).display().to_string();
+    let svg = plot_svg(ladder).map_err(|message| OutputError::Plot {
+        path: target("accuracy.svg"),
+        message,
+    })?;
+    let mut df = ladder.frame().map_err(|source| OutputError::Parquet {
+        path: target("accuracy.parquet"),
+        source,
+    })?;
+    let mut staging = Staging::new(dir);
+    write_parquet(&mut staging, "accuracy.parquet", &mut df, schema_metadata())?;
+    for (name, text) in [("accuracy.md", &md), ("accuracy.svg", &svg)] {
+        staging.write(name, |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes())
+                .map_err(|source| OutputError::Io {
+                    path: target(name),
+                    source,
+                })
+        })?;
+    }
+    staging.commit()?;
+    Ok(md)
+}

@@ -1,0 +1,108 @@
+//! The subcommands. Each parses nothing itself (clap did) and returns a
+//! [`Failure`] with the exit code its error kind deserves.
+
+pub mod accuracy;
+pub mod inspect;
+pub mod merge;
+pub mod run;
+pub mod solve;
+pub mod stress;
+
+use impactmc::output::OutputError;
+use impactmc::study::StudyError;
+
+/// Summary format on stdout.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Format {
+    Text,
+    Json,
+}
+
+/// An error with the exit code it deserves: 2 for bad input (the scene, the
+/// case, the flags, the output folder), 1 for a failure while running or
+/// writing.
+pub struct Failure {
+    pub code: u8,
+    pub message: String,
+}
+
+impl Failure {
+    pub fn bad_input(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 2,
+            message: message.to_string(),
+        }
+    }
+
+    pub fn failed(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 1,
+            message: message.to_string(),
+        }
+    }
+}
+
+/// The message with its chain of causes (`a: b: c`), each once.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(c) = source {
+        let m = c.to_string();
+        if !s.contains(&m) {
+            s.push_str(": ");
+            s.push_str(&m);
+        }
+        source = c.source();
+    }
+    s
+}
+
+impl From<StudyError> for Failure {
+    fn from(e: StudyError) -> Self {
+        let message = chain(&e);
+        match e {
+            StudyError::Scene(_) | StudyError::Merge(_) | StudyError::Unsupported(_) => {
+                Self::bad_input(message)
+            }
+            StudyError::Output(OutputError::Exists(_)) => Self::bad_input(message),
+            StudyError::Run(_) | StudyError::Output(_) => Self::failed(message),
+        }
+    }
+}
+
+impl From<OutputError> for Failure {
+    /// A folder that cannot be prepared is bad input (checked before any
+    /// work); one that fails later, a failure.
+    fn from(e: OutputError) -> Self {
+        Self::failed(chain(&e))
+    }
+}
+
+/// Writes to stdout; a closed pipe (`| head`) ends the program quietly
+/// instead of panicking.
+pub fn emit(text: &str) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: stdout: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// Prints a summary after its folder is written: the text (and where it
+/// went) or the JSON.
+pub fn report(text: &str, json: &serde_json::Value, dir: &std::path::Path, format: Format) {
+    match format {
+        Format::Text => {
+            emit(text);
+            emit(&format!("\nwrote {}\n", dir.display()));
+        }
+        Format::Json => emit(&format!(
+            "{}\n",
+            serde_json::to_string_pretty(json).expect("summary serialises")
+        )),
+    }
+}

@@ -1,0 +1,134 @@
+//! `impactmc run`: a scene's study, with the engine the scene calls for.
+
+use std::path::PathBuf;
+
+use impactmc::config::{Keep, Overrides, Precision};
+use impactmc::engine::RunOptions;
+use impactmc::output::prepare_dir;
+use impactmc::stats::tree::Shard;
+use impactmc::study::{self, Outcome};
+
+use super::{report, Failure, Format};
+
+/// The scene `impactmc run` uses when given none.
+const DEFAULT_SCENE: &str = "configs/corner3.toml";
+
+#[derive(clap::Args)]
+pub struct RunArgs {
+    /// Scene file (TOML). Default: configs/corner3.toml.
+    scene: Option<PathBuf>,
+    /// Number of samples (overrides the scene's `samples`).
+    #[arg(long)]
+    samples: Option<u64>,
+    /// Random seed (overrides the scene's `seed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Impact law: paper, newton, poisson or pgsN. Repeatable; replaces the
+    /// scene's `laws`.
+    #[arg(long = "law")]
+    laws: Vec<String>,
+    /// Kernel precision: f32 or f64 (overrides the scene's `precision`).
+    #[arg(long)]
+    precision: Option<Precision>,
+    /// Output folder (default: results/<scene name>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Overwrite an output folder that already holds a run.
+    #[arg(long)]
+    force: bool,
+    /// Also write samples.parquet, one row per sample (streamed).
+    #[arg(long)]
+    per_sample: bool,
+    /// Per-sample columns to keep, comma-separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    columns: Option<Vec<String>>,
+    /// Run only shard I of N (0 ≤ I < N): a contiguous share of the batches,
+    /// saved with its accumulator state for `impactmc merge`.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<Shard>,
+    /// Statistics with quantiles (p01, median, p99) and histograms,
+    /// comma-separated: energy_ratio, omega_after_norm,
+    /// velocity_after_norm, impulse, rebound. Replaces the scene's
+    /// `[statistics] quantiles` (default: energy_ratio); `--quantiles ''`
+    /// keeps none (moments only).
+    #[arg(long, value_delimiter = ',', value_name = "STATS")]
+    quantiles: Option<Vec<String>>,
+    /// Summary format on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
+    /// Keep computing effects the scene does not need: rotation, lcp,
+    /// statistics or all (comma-separated or repeated). Same answers,
+    /// slower: for measuring what compiling an effect out saves.
+    #[arg(long, value_delimiter = ',')]
+    keep: Vec<Keep>,
+    /// Same as `--keep all`.
+    #[arg(long)]
+    all_effects: bool,
+}
+
+pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    let path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_SCENE));
+    let overrides = Overrides {
+        per_sample: args.per_sample,
+        columns: args.columns.clone(),
+        samples: args.samples,
+        seed: args.seed,
+        laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
+        precision: args.precision,
+        // `--quantiles ''` is the empty list, as `quantiles = []` is.
+        quantiles: args
+            .quantiles
+            .clone()
+            .map(|q| if q == [""] { Vec::new() } else { q }),
+    };
+    let keep = args.keep.iter().fold(
+        if args.all_effects {
+            Keep::ALL
+        } else {
+            Keep::NONE
+        },
+        |k, e| k.union(*e),
+    );
+    // Validate the scene (every sweep point) and the folder before any work;
+    // what will run goes to stderr (stdout may be JSON).
+    let prepared = study::prepare(&path, &overrides, keep)?;
+    eprintln!("{}", prepared.effects_line);
+    if let Some(line) = &prepared.kernel_line {
+        eprintln!("{line}");
+    }
+    let name = &prepared.name;
+    let dir = args.out.clone().unwrap_or_else(|| match args.shard {
+        Some(s) if !prepared.drop => {
+            PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))
+        }
+        _ => PathBuf::from("results").join(name),
+    });
+    prepare_dir(&dir, args.force).map_err(Failure::bad_input)?;
+    let opts = RunOptions {
+        threads: args.threads,
+        progress: true,
+        shard: args.shard,
+        keep,
+    };
+    let outcome = study::run(&path, &overrides, &opts, &dir)?;
+    let mut text = outcome.text();
+    if let (Some(s), Outcome::Contacts(study)) = (args.shard, &outcome) {
+        let r = &study.points[0].result;
+        let range = s.batches(r.batches);
+        text = format!(
+            "shard {}/{}: batches {}..{} of {} per point (merge the shard folders with `impactmc merge`)\n{text}",
+            s.index, s.count, range.start, range.end, r.batches
+        );
+    }
+    let json = outcome.summary_json();
+    // Outputs first, so a closed stdout never costs the results.
+    outcome.write()?;
+    report(&text, &json, &dir, args.format);
+    Ok(())
+}

@@ -1,0 +1,18 @@
+//! Configuration: scene files as parsed (raw, serde), validated into a
+//! [`Scene`] in one place, with the effects it calls for, its sweep grid,
+//! and single-impact cases for `impactmc solve`.
+
+pub mod case;
+mod effects;
+pub mod raw;
+mod scene;
+pub mod sweep;
+mod validate;
+
+pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAMES};
+pub use raw::*;
+pub use scene::{
+    load_scene, NamedPlane, OrientationDist, Overrides, Precision, Scene, SceneError, VectorDist,
+    DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
+};
+pub use validate::parse_law;

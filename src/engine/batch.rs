@@ -1,0 +1,193 @@
+//! One batch of a run: SoA blocks through sampler → kernel → f64 fallback
+//! → statistics (and per-sample rows, when asked for).
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+use crate::config::Scene;
+use crate::kernel::{
+    check_extra_planes, geometry, impulses, post, recompute, Consts, Geometry, LawOut,
+};
+use crate::lanes::dispatch::{multiversioned, BLOCK};
+use crate::lanes::Real;
+use crate::output::samples::{push_rows, SampleRows};
+use crate::physics::Law;
+use crate::sampler::{Inputs, Sampler};
+use crate::stats::accumulators::RunAcc;
+use crate::stats::block::{block_stats, Derived, StatsPlan};
+
+/// Scratch space of one worker: allocated once per batch, reused by blocks.
+pub(crate) struct Work<T, const N: usize> {
+    pub(crate) inputs: Box<Inputs<T>>,
+    pub(crate) geo: Box<Geometry<T, N>>,
+    pub(crate) outs: Vec<Box<LawOut<T, N>>>,
+    pub(crate) derived: Box<Derived<T, N>>,
+    /// laws[0]'s per-lane statistics, for paired differences.
+    pub(crate) first: Box<Derived<T, N>>,
+    pub(crate) diff: Box<[T; BLOCK]>,
+}
+
+impl<T: Real, const N: usize> Work<T, N> {
+    pub(crate) fn new(laws: usize) -> Self {
+        Self {
+            inputs: Inputs::new(),
+            geo: Geometry::new(),
+            outs: (0..laws).map(|_| LawOut::new()).collect(),
+            derived: Derived::new(),
+            first: Derived::new(),
+            diff: Box::new([T::ZERO; BLOCK]),
+        }
+    }
+}
+
+multiversioned! {
+    /// The vectorised part of a block: draws, geometry, impulses and post
+    /// quantities for every law. Compiled for AVX-512, AVX2+FMA and the
+    /// baseline; the best the CPU has is chosen at run time.
+    pub(crate) fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+        consts: &Consts<T, N>,
+        sampler: &Sampler,
+        laws: &[Law],
+        first: u64,
+        inputs: &mut Inputs<T>,
+        geo: &mut Geometry<T, N>,
+        outs: &mut [Box<LawOut<T, N>>],
+    ) {
+        crate::lanes::dispatch::align_frame();
+        sampler.fill(first, inputs);
+        let newton_only = CPL && laws.iter().all(|l| matches!(l, Law::Newton));
+        geometry::<T, N, ROT>(consts, inputs, geo, !newton_only);
+        for (law, out) in laws.iter().zip(outs.iter_mut()) {
+            impulses::<T, N, ROT, CPL>(consts, *law, geo, out);
+            post::<T, N, ROT>(consts, inputs, geo, out);
+        }
+    }
+}
+
+multiversioned! {
+    /// The contact kernel alone on a block of given inputs (geometry, one law's
+    /// impulses, post-impact quantities), with the same run-time dispatch as a
+    /// run. For benchmarks that compare kernel designs on identical inputs.
+    pub fn kernel_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+        consts: &Consts<T, N>,
+        law: Law,
+        inputs: &Inputs<T>,
+        geo: &mut Geometry<T, N>,
+        out: &mut LawOut<T, N>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        geometry::<T, N, ROT>(consts, inputs, geo, !(CPL && matches!(law, Law::Newton)));
+        impulses::<T, N, ROT, CPL>(consts, law, geo, out);
+        post::<T, N, ROT>(consts, inputs, geo, out);
+    }
+}
+
+multiversioned! {
+    /// The sampler alone on one block, with the same run-time dispatch as a
+    /// run. For benchmarks of the draws.
+    pub fn sample_block<T: Real>(sampler: &Sampler, first: u64, inputs: &mut Inputs<T>) {
+        crate::lanes::dispatch::align_frame();
+        sampler.fill(first, inputs);
+    }
+}
+
+/// One block: the lane passes, then the reference for flagged lanes, then the
+/// accumulators (scalar).
+/// What every block of a run shares.
+pub(crate) struct Ctx<'a, T, const N: usize> {
+    pub(crate) scene: &'a Scene,
+    pub(crate) consts: &'a Consts<T, N>,
+    pub(crate) sampler: &'a Sampler,
+    pub(crate) plan: StatsPlan,
+}
+
+pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+    ctx: &Ctx<T, N>,
+    first: u64,
+    count: usize,
+    work: &mut Work<T, N>,
+    acc: &mut RunAcc,
+    rows: Option<&mut SampleRows>,
+) {
+    let Ctx {
+        scene,
+        consts,
+        sampler,
+        ..
+    } = *ctx;
+    let laws = scene.laws();
+    block_lanes::<T, N, ROT, CPL>(
+        consts,
+        sampler,
+        laws,
+        first,
+        &mut work.inputs,
+        &mut work.geo,
+        &mut work.outs,
+    );
+    fallback(scene, sampler, laws, first, work, count);
+    block_stats(
+        &work.geo,
+        &work.outs,
+        count,
+        ctx.plan,
+        &mut work.derived,
+        &mut work.first,
+        &mut work.diff,
+        acc,
+    );
+    if let Some(rows) = rows {
+        push_rows(&work.inputs, &work.geo, &work.outs, first, count, rows);
+    }
+}
+
+/// The scalar part after the lane passes, for every law of a block: planes
+/// outside the placement are checked (only in scenes that have them), and
+/// flagged lanes are solved again by the f64 reference.
+pub(crate) fn fallback<T: Real, const N: usize>(
+    scene: &Scene,
+    sampler: &Sampler,
+    laws: &[Law],
+    first: u64,
+    work: &mut Work<T, N>,
+    count: usize,
+) {
+    let extra_planes = scene.planes().len() > N;
+    if extra_planes {
+        check_extra_planes(scene, &work.inputs, &mut work.geo, count);
+    }
+    if sampler.partial_rows() {
+        // The reference reads the whole orientation of a flagged lane: its
+        // unwritten rows, as the full fill would have written them.
+        let mut flagged = 0u32;
+        for out in work.outs.iter() {
+            for st in &out.status[..count] {
+                flagged |= st & crate::kernel::RECOMPUTE;
+            }
+        }
+        if flagged != 0 {
+            for s in 0..count {
+                if work
+                    .outs
+                    .iter()
+                    .any(|o| o.status[s] & crate::kernel::RECOMPUTE != 0)
+                {
+                    let a = sampler.orientation_of::<T>(first + s as u64);
+                    for (k, ak) in a.into_iter().enumerate() {
+                        work.inputs.a[k][s] = ak;
+                    }
+                }
+            }
+        }
+    }
+    for (law, out) in laws.iter().zip(work.outs.iter_mut()) {
+        if extra_planes {
+            // Extra-plane checks landed in geo.status after the lane passes.
+            for s in 0..count {
+                out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+            }
+        }
+        recompute(scene, *law, &work.inputs, out, count);
+    }
+}

@@ -1,0 +1,333 @@
+//! The Monte Carlo run: batches of samples in parallel (rayon), each batch a
+//! sequence of SoA blocks through sampler → kernel → accumulators; batch
+//! results are merged along a fixed tree over batch indices ([`Node`]), so
+//! the answer depends neither on the thread count and scheduling nor on how
+//! the batches are split into shards.
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+mod batch;
+mod evaluate;
+mod pool;
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+pub use batch::{kernel_block, sample_block};
+pub use evaluate::{evaluate_samples, evaluate_samples_with, SampleOutcome};
+
+pub use crate::config::Keep;
+use crate::config::Scene;
+use crate::engine::batch::{run_block, Ctx, Work};
+use crate::engine::pool::Pool;
+use crate::kernel::{Consts, KernelVariant};
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::Real;
+use crate::output::manifest::process_cpu_seconds;
+use crate::output::samples::{sample_columns, SampleRows};
+use crate::sampler::{Sampler, ALL_ROWS};
+use crate::stats::accumulators::RunAcc;
+use crate::stats::block::StatsPlan;
+use crate::stats::tree::{aligned_nodes, reduce_tree, Node, Shard, TreeStack};
+use crate::stats::RunResult;
+
+/// Calls `f::<T, N, ROT, CPL>(args)` for a scene's precision, contact count
+/// and kernel variant.
+macro_rules! with_kernel {
+    ($scene:expr, $variant:expr, $f:ident($($arg:expr),*)) => {{
+        let v: KernelVariant = $variant;
+        macro_rules! by_variant {
+            ($t:ty, $n:literal) => {
+                match (v.rotational_coupling, v.coupled_contacts) {
+                    (true, true) => $f::<$t, $n, true, true>($($arg),*),
+                    (true, false) => $f::<$t, $n, true, false>($($arg),*),
+                    (false, true) => $f::<$t, $n, false, true>($($arg),*),
+                    (false, false) => $f::<$t, $n, false, false>($($arg),*),
+                }
+            };
+        }
+        match ($scene.precision(), $scene.touching().len()) {
+            ($crate::config::Precision::F32, 1) => by_variant!(f32, 1),
+            ($crate::config::Precision::F32, 2) => by_variant!(f32, 2),
+            ($crate::config::Precision::F32, _) => by_variant!(f32, 3),
+            ($crate::config::Precision::F64, 1) => by_variant!(f64, 1),
+            ($crate::config::Precision::F64, 2) => by_variant!(f64, 2),
+            ($crate::config::Precision::F64, _) => by_variant!(f64, 3),
+        }
+    }};
+}
+pub(crate) use with_kernel;
+
+/// Options of a run that do not change its results.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Worker threads; 0 means all cores.
+    pub threads: usize,
+    /// Show a progress bar on a terminal.
+    pub progress: bool,
+    /// Run only this shard's batches.
+    pub shard: Option<Shard>,
+    /// Effects computed although the scene does not need them (same
+    /// answers; for measuring what the specialisation saves).
+    pub keep: Keep,
+}
+
+/// Batches run per step when per-sample rows are written (rows are
+/// delivered in sample order, so memory is bounded by the step).
+const BATCHES_IN_FLIGHT_WITH_ROWS: u64 = 2;
+
+/// Receives per-sample rows in sample order.
+pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), SinkError> + Send + 'a;
+
+/// Why a [`SampleSink`] refused rows (kept as the source of [`RunError::Sink`]).
+pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
+
+fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+    scene: &Scene,
+    plan: StatsPlan,
+    batch_range: std::ops::Range<u64>,
+    bar: &indicatif::ProgressBar,
+    mut sink: Option<&mut SampleSink>,
+) -> Result<Vec<(Node, RunAcc)>, SinkError> {
+    let consts = Consts::<T, N>::new(scene);
+    // Orientations feed the rotational terms and the per-sample rows only,
+    // and the kernel reads only the rows of A its planes need; per-sample
+    // rows and planes outside the placement read the whole matrix.
+    let whole = sink.is_some() || scene.planes().len() > N;
+    let sampler = Sampler::new(scene)
+        .with_orientation(ROT || sink.is_some())
+        .with_matrix_rows(if whole {
+            ALL_ROWS
+        } else {
+            consts.matrix_rows()
+        });
+    let laws = scene.laws().len();
+    let batch = scene.batch_size();
+    let total = scene.samples();
+    let (nf, ni) = {
+        let (f, i) = sample_columns(scene);
+        (f.len(), i.len())
+    };
+    let want_rows = sink.is_some();
+    let ctx = Ctx {
+        scene,
+        consts: &consts,
+        sampler: &sampler,
+        plan,
+    };
+    let pool = Pool::<Work<T, N>>::new();
+    // Holds cleared accumulators only.
+    let accs = Pool::<RunAcc>::new();
+    let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
+        let mut work = pool.take(|| Work::new(laws));
+        let mut part = accs.take(|| RunAcc::new(laws, N));
+        let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
+        let lo = b * batch;
+        let hi = (lo + batch).min(total);
+        let mut first = lo;
+        while first < hi {
+            let count = ((hi - first) as usize).min(BLOCK);
+            run_block::<T, N, ROT, CPL>(&ctx, first, count, &mut work, &mut part, rows.as_mut());
+            first += BLOCK as u64;
+        }
+        part.flush();
+        pool.give(work);
+        bar.inc(hi - lo);
+        (part, rows)
+    };
+    let mut tree = TreeStack::default();
+    if !want_rows {
+        // Summary only: each maximal tree node is run as a parallel
+        // recursion that merges its two halves as soon as both are done,
+        // on whichever thread finished last. Merges overlap with other
+        // batches' work (no serial merge step, no barrier), and the tree's
+        // shape is fixed by the batch indices, so results are bit-identical
+        // for any thread count.
+        // A merged right half's accumulator is cleared and reused by a
+        // later batch.
+        fn subtree(
+            node: Node,
+            leaf: &(dyn Fn(u64) -> RunAcc + Sync),
+            accs: &Pool<RunAcc>,
+        ) -> RunAcc {
+            if node.level == 0 {
+                return leaf(node.index);
+            }
+            let child = |i| Node {
+                level: node.level - 1,
+                index: i,
+            };
+            let (mut left, mut right) = rayon::join(
+                || subtree(child(2 * node.index), leaf, accs),
+                || subtree(child(2 * node.index + 1), leaf, accs),
+            );
+            left.merge(&right);
+            right.clear();
+            accs.give(right);
+            left
+        }
+        let leaf = |b: u64| run_batch(b).0;
+        let nodes = aligned_nodes(batch_range);
+        let merged: Vec<RunAcc> = nodes
+            .par_iter()
+            .map(|&node| subtree(node, &leaf, &accs))
+            .collect();
+        for (node, acc) in nodes.into_iter().zip(merged) {
+            tree.push_node(node, acc);
+        }
+        return Ok(tree.nodes);
+    }
+    let in_flight = BATCHES_IN_FLIGHT_WITH_ROWS * rayon::current_num_threads() as u64;
+    let mut start = batch_range.start;
+    while start < batch_range.end {
+        let end = (start + in_flight).min(batch_range.end);
+        let parts: Vec<(RunAcc, Option<SampleRows>)> =
+            (start..end).into_par_iter().map(run_batch).collect();
+        for (b, (p, rows)) in (start..end).zip(parts) {
+            tree.push(b, p);
+            if let (Some(sink), Some(rows)) = (sink.as_mut(), rows) {
+                sink(rows)?;
+            }
+        }
+        start = end;
+    }
+    Ok(tree.nodes)
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("thread pool: {0}")]
+    Pool(#[from] rayon::ThreadPoolBuildError),
+    #[error("per-sample output: {0}")]
+    Sink(#[source] SinkError),
+}
+
+/// Runs a scene (summary statistics only).
+pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunResult, RunError> {
+    run_with_samples(scene, opts, None)
+}
+
+/// Runs a scene and hands every sample's row, in sample order, to `sink`.
+pub fn run_with_samples(
+    scene: &Scene,
+    opts: &RunOptions,
+    sink: Option<&mut SampleSink>,
+) -> Result<RunResult, RunError> {
+    let threads = if opts.threads == 0 {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    } else {
+        opts.threads
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let batches = scene.samples().div_ceil(scene.batch_size());
+    let range = match opts.shard {
+        Some(shard) => shard.batches(batches),
+        None => 0..batches,
+    };
+    let samples_run = (range.end * scene.batch_size()).min(scene.samples())
+        - (range.start * scene.batch_size()).min(scene.samples());
+    let bar = if opts.progress && samples_run >= 20_000_000 {
+        let b = indicatif::ProgressBar::new(samples_run);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}",
+            )
+            .expect("static template"),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let cpu0 = process_cpu_seconds();
+    let t0 = Instant::now();
+    let r = range.clone();
+    let variant = KernelVariant::of(scene, opts.keep);
+    let plan = StatsPlan::of(scene, opts.keep);
+    let nodes = pool
+        .install(|| with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink)))
+        .map_err(RunError::Sink)?;
+    let (laws, contacts) = (scene.laws().len(), scene.touching().len());
+    let kept = if opts.shard.is_some() {
+        nodes.clone()
+    } else {
+        Vec::new()
+    };
+    let (mut acc, _) = reduce_tree(nodes, batches, laws, contacts);
+    acc.finish();
+    let wall_seconds = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let cpu_seconds = match (cpu0, process_cpu_seconds()) {
+        (Some(a), Some(b)) => Some(b - a),
+        _ => None,
+    };
+    Ok(RunResult {
+        acc,
+        nodes: kept,
+        batches,
+        batches_run: range.end - range.start,
+        wall_seconds,
+        cpu_seconds,
+        threads,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every accumulator field by path, as comparable text.
+    fn slots(acc: &mut RunAcc) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        acc.visit(&mut |path, slot| {
+            let value = match slot {
+                Slot::Count(c) => format!("count {c}"),
+                Slot::Moments(m) => format!("moments {:?}", m.state()),
+                Slot::Histogram(h) => format!("hist {:?}", h.entries()),
+            };
+            out.push((path.to_string(), value));
+        });
+        out
+    }
+
+    /// A run's accumulator, cleared for reuse, is a new one in every field
+    /// (and the run had filled fields of every kind).
+    #[test]
+    fn a_cleared_accumulator_is_a_new_one() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml");
+        let scene = crate::config::load_scene(
+            std::path::Path::new(path),
+            &crate::config::Overrides {
+                samples: Some(4096),
+                laws: Some(vec!["newton".into(), "poisson".into()]),
+                ..Default::default()
+            },
+        )
+        .expect("shipped scene");
+        let opts = RunOptions {
+            threads: 1,
+            keep: Keep::ALL,
+            ..Default::default()
+        };
+        let mut used = run(&scene, &opts).expect("run").acc;
+        let mut fresh = RunAcc::new(2, 3);
+        let (before, want) = (slots(&mut used), slots(&mut fresh));
+        assert_eq!(before.len(), want.len());
+        for kind in ["count", "moments", "hist"] {
+            let changed = before
+                .iter()
+                .zip(&want)
+                .any(|(b, w)| b.1.starts_with(kind) && b != w);
+            assert!(changed, "the run filled no {kind} field");
+        }
+        used.clear();
+        assert_eq!(slots(&mut used), want);
+    }
+}

@@ -1,0 +1,205 @@
+//! The impulse pass under each law, and the post pass (velocities, normal
+//! velocities and energy after the impulses).
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+#[allow(unused_imports)]
+use super::fallback::*;
+#[allow(unused_imports)]
+use super::geometry::*;
+#[allow(unused_imports)]
+use super::lcp::*;
+use crate::kernel::*;
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
+
+/// Impulse pass for the exact laws and the paper's law.
+///
+/// `CPL = false` is the kernel without coupled contacts (one plane, or G
+/// diagonal by geometry): every law then has the closed form
+/// `λ_i = −(1 + k_i) v_n,i / G_ii` on approaching contacts and no LCP is
+/// solved (physics.md: the LCP decouples when G is diagonal, and Poisson's
+/// and PGS's fixed points coincide with Newton's).
+#[inline(always)]
+pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+    c: &Consts<T, N>,
+    law: Law,
+    geo: &Geometry<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    let law = if CPL { law } else { Law::Paper };
+    match law {
+        Law::Paper => {
+            for s in 0..BLOCK {
+                for i in 0..N {
+                    let vn = geo.vn[i][s];
+                    out.lambda[i][s] = select(
+                        vn < T::ZERO,
+                        -(T::ONE + c.k[i]) * vn / g_at::<T, N, ROT>(c, geo, i, i, s),
+                        T::ZERO,
+                    );
+                }
+                out.status[s] = geo.status[s];
+            }
+        }
+        Law::Newton => {
+            // q in `vn_after`, which `post` then overwrites: a local array
+            // cost a memset per block (LLVM zeroes it before the loop).
+            let q = &mut out.vn_after;
+            for i in 0..N {
+                for s in 0..BLOCK {
+                    let vn = geo.vn[i][s];
+                    q[i][s] = vn + c.k[i] * vn.min(T::ZERO);
+                }
+            }
+            let mut ok = [true; BLOCK];
+            let mut conditioned = [true; BLOCK];
+            lcp_block::<T, N, ROT>(
+                c,
+                geo,
+                &out.vn_after,
+                &mut out.lambda,
+                &mut ok,
+                &mut conditioned,
+            );
+            // G's conditioning (`geometry` leaves it to this law when it
+            // is the only one; the same bit either way).
+            for s in 0..BLOCK {
+                out.status[s] = geo.status[s] | bit(!(ok[s] & conditioned[s]), RECOMPUTE);
+            }
+        }
+        Law::Poisson => {
+            // Compression, then restitution: two LCPs per lane.
+            let mut lc = [[T::ZERO; BLOCK]; N];
+            let mut ok1 = [true; BLOCK];
+            let mut conditioned = [true; BLOCK];
+            lcp_block::<T, N, ROT>(c, geo, &geo.vn, &mut lc, &mut ok1, &mut conditioned);
+            let mut q = [[T::ZERO; BLOCK]; N];
+            for s in 0..BLOCK {
+                let g = lane_g::<T, N, ROT>(c, geo, s);
+                let klc: [T; N] = std::array::from_fn(|i| c.k[i] * lc[i][s]);
+                for i in 0..N {
+                    let mut x = geo.vn[i][s];
+                    for j in 0..N {
+                        x += g[i][j] * (lc[j][s] + klc[j]);
+                    }
+                    q[i][s] = x;
+                }
+            }
+            // The restitution phase's supports are mixed (about 44 % of S3's
+            // lanes are neither empty nor full), so no certificate is tried.
+            let mut ok2 = [true; BLOCK];
+            lcp_lanes::<T, N, ROT>(c, geo, &q, &mut out.lambda, &mut ok2, &mut conditioned);
+            for s in 0..BLOCK {
+                for i in 0..N {
+                    out.lambda[i][s] = lc[i][s] + c.k[i] * lc[i][s] + out.lambda[i][s];
+                }
+                out.status[s] = geo.status[s] | bit(!(ok1[s] && ok2[s]), RECOMPUTE);
+            }
+        }
+        Law::Pgs { sweeps } => {
+            for i in 0..N {
+                out.lambda[i] = [T::ZERO; BLOCK];
+            }
+            // Sweeps outermost, so the inner loop over lanes vectorises.
+            for _ in 0..sweeps {
+                for s in 0..BLOCK {
+                    let mut lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
+                    for i in 0..N {
+                        let vn = geo.vn[i][s];
+                        let mut w = vn + c.k[i] * vn.min(T::ZERO);
+                        for j in 0..N {
+                            w += g_at::<T, N, ROT>(c, geo, i, j, s) * lam[j];
+                        }
+                        lam[i] = (lam[i] - w / g_at::<T, N, ROT>(c, geo, i, i, s)).max(T::ZERO);
+                    }
+                    for i in 0..N {
+                        out.lambda[i][s] = lam[i];
+                    }
+                }
+            }
+            out.status = geo.status;
+        }
+    }
+}
+
+/// Post pass: velocities, normal velocities and energy after the impulses.
+/// Without rotational coupling (`ROT = false`) ω⁺ = ω⁻.
+#[inline(always)]
+pub fn post<T: Real, const N: usize, const ROT: bool>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
+    let ambiguous = T::from_f64(64.0) * T::EPSILON;
+    for s in 0..BLOCK {
+        let lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
+        let mut dv = [T::ZERO; 3];
+        let mut dl = [T::ZERO; 3];
+        let mut active = 0u32;
+        for i in 0..N {
+            for k in 0..3 {
+                dv[k] = lam[i].mul_add(c.normal[i][k], dv[k]);
+                if ROT {
+                    dl[k] = lam[i].mul_add(geo.rho[i][k][s], dl[k]);
+                }
+            }
+            active |= ((lam[i] > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
+        }
+        let v: [T; 3] = std::array::from_fn(|k| dv[k].mul_add(c.inv_mass, x.v[k][s]));
+        let w: [T; 3] = std::array::from_fn(|k| {
+            if ROT {
+                dl[k].mul_add(c.inv_inertia[k], x.w[k][s])
+            } else {
+                x.w[k][s]
+            }
+        });
+        let mut work = T::ZERO;
+        let mut work_abs = T::ZERO;
+        for i in 0..N {
+            let mut vn = geo.vn[i][s];
+            for j in 0..N {
+                vn = g_at::<T, N, ROT>(c, geo, i, j, s).mul_add(lam[j], vn);
+            }
+            out.vn_after[i][s] = vn;
+            work += lam[i] * (geo.vn[i][s] + vn);
+            work_abs += lam[i] * (geo.vn[i][s].abs() + vn.abs());
+        }
+        let t0 = geo.t_before[s];
+        let direct = T::HALF
+            * c.mass.mul_add(
+                dot3(v, v),
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
+        // f32: T⁺ = T⁻ + ΔT with ΔT = ½Σλ(v_n⁻ + v_n⁺) exactly (physics.md),
+        // accurate relative to ΔT rather than to T.
+        let dt = T::HALF * work;
+        let t1 = if f32_lanes { t0 + dt } else { direct };
+        let gained = if f32_lanes {
+            dt > gain * t0
+        } else {
+            t1 > t0 + gain * t0
+        };
+        // Rounding bound of dt: a few ε of the sum of |terms|. Only when
+        // the threshold lies within it is the f32 flag in doubt.
+        let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
+        for k in 0..3 {
+            out.v_after[k][s] = v[k];
+            out.w_after[k][s] = w[k];
+        }
+        out.t_after[s] = t1;
+        out.status[s] |= active | bit(gained, ENERGY_GAIN) | bit(unsure, RECOMPUTE);
+    }
+}

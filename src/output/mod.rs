@@ -1,0 +1,17 @@
+//! Run outputs: one folder per run, every file written under a temporary
+//! name and renamed when complete, so a file is either whole or absent
+//! (cryo's export pattern). The manifest is built in one place for every
+//! kind of run; summaries are typed; per-sample rows stream to Parquet.
+
+pub mod manifest;
+pub mod samples;
+pub mod shard;
+mod staging;
+pub mod summary;
+mod tables;
+
+pub use staging::{prepare_dir, OutputError, Staging};
+pub use tables::{
+    histograms_frame, schema_metadata, summary_frame, sweep_column, table_metadata, write_parquet,
+    LawAccs, PointValues,
+};
