@@ -10,8 +10,9 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use impactmc::engine::{run, sample_block, Keep, RunOptions};
 use impactmc::physics::{solve_impact, Law, Pose, State};
-use impactmc::sampler::{Inputs, Sampler, BLOCK};
-use impactmc::scene::{load_scene, Overrides, Scene};
+use impactmc::lanes::dispatch::BLOCK;
+use impactmc::sampler::{Inputs, Sampler};
+use impactmc::config::{load_scene, Overrides, Scene};
 
 const SAMPLES: u64 = 1 << 18;
 
@@ -23,7 +24,7 @@ fn scene(name: &str, law: &str, precision: &str) -> Scene {
             samples: Some(SAMPLES),
             seed: Some(1),
             laws: Some(vec![law.into()]),
-            precision: Some(precision.into()),
+            precision: Some(precision.parse().expect("f32 or f64")),
             ..Overrides::default()
         },
     )

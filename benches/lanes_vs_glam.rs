@@ -16,8 +16,9 @@ use glam::{Mat3A, Vec3A};
 use impactmc::engine::kernel_block;
 use impactmc::kernel::{Consts, Geometry, LawOut};
 use impactmc::physics::Law;
-use impactmc::sampler::{Inputs, Sampler, BLOCK};
-use impactmc::scene::{load_scene, Overrides};
+use impactmc::lanes::dispatch::BLOCK;
+use impactmc::sampler::{Inputs, Sampler};
+use impactmc::config::{load_scene, Overrides};
 
 const BLOCKS: usize = 256;
 
@@ -26,7 +27,7 @@ fn bench(c: &mut Criterion) {
     let scene = load_scene(
         &path,
         &Overrides {
-            precision: Some("f32".into()),
+            precision: Some(impactmc::config::Precision::F32),
             ..Overrides::default()
         },
     )

@@ -5,7 +5,10 @@
 //! f32 kernel stays within its documented bound; the paper's Lagrange
 //! contact point agrees with the closed form.
 
-use std::path::Path;
+mod support;
+
+use support::{repo, bin, scratch};
+
 
 use polars::prelude::SerReader;
 
@@ -16,13 +19,13 @@ use impactmc::physics::{
     solve_compliant, solve_impact, support_point_lagrange, CompliantParams, ContactGeometry, Law,
     Plane,
 };
-use impactmc::scene::{load_scene, Overrides, Scene};
+use impactmc::config::{load_scene, Overrides, Scene};
 
 fn scene(name: &str, precision: &str) -> Scene {
     load_scene(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml")),
+        &repo(&format!("configs/{name}.toml")),
         &Overrides {
-            precision: Some(precision.into()),
+            precision: Some(precision.parse().expect("f32 or f64")),
             laws: Some(vec!["newton".into()]),
             ..Default::default()
         },
@@ -219,12 +222,11 @@ fn lagrange_contact_point_matches_the_closed_form() {
 /// with every rung, a readable Parquet file; bad knobs are refused by name.
 #[test]
 fn accuracy_command_writes_table_plot_and_parquet() {
-    use std::process::Command;
-    let d = std::env::temp_dir().join(format!("impactmc-accuracy-{}", std::process::id()));
+    let d = scratch("accuracy");
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/accuracy_corner3.toml"),
+        repo("configs/accuracy_corner3.toml"),
     )
     .unwrap();
     let small = text
@@ -245,7 +247,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
         .join("\n");
     let scene = d.join("acc.toml");
     std::fs::write(&scene, &small).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .arg("accuracy")
         .arg(&scene)
         .arg("--out")
@@ -287,7 +289,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
         small.replace("reference_steps = 100", "reference_steps = 20"),
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .arg("accuracy")
         .arg(&scene)
         .arg("--out")
@@ -307,7 +309,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
 /// the default time-of-impact tolerance) and as the TOI tolerance shrinks.
 #[test]
 fn flight_rungs_converge_with_step_and_tolerance() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/drop_corner.toml");
+    let path = repo("configs/drop_corner.toml");
     let s = load_scene(&path, &Overrides::default()).unwrap();
     let mut knobs = impactmc::accuracy::Knobs::from_raw("drop_corner.toml", s.raw()).unwrap();
     knobs.samples = 300;

@@ -4,18 +4,17 @@
 //! flight times 2k^(n−1)·u/g); the same answer on 1 and 2 threads; and the
 //! errors for impossible drop scenes.
 
-use std::path::Path;
-use std::process::Command;
+mod support;
+
+use support::{bin, repo, scratch};
+
 
 use impactmc::drop::run_drop;
-use impactmc::scene::{load_scene, Overrides, Scene};
+use impactmc::config::{load_scene, Overrides, Scene};
 
-fn repo(rel: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
 
 fn scene_text(text: &str, tag: &str) -> Result<Scene, String> {
-    let d = std::env::temp_dir().join(format!("impactmc-drop-{tag}-{}", std::process::id()));
+    let d = scratch(&format!("drop-{tag}"));
     std::fs::create_dir_all(&d).unwrap();
     let p = d.join("scene.toml");
     std::fs::write(&p, text).unwrap();
@@ -63,7 +62,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
                 e.flight,
                 e.flight_rotation,
                 e.bounces,
-                impactmc::engine::KernelVariant::of(&s, impactmc::engine::Keep::NONE).name(),
+                impactmc::kernel::KernelVariant::of(&s, impactmc::engine::Keep::NONE).name(),
                 e.constant_spin,
             ),
             (rot, coupled, flight, rotation, bounces, kernel, spin),
@@ -206,9 +205,9 @@ fn impossible_drop_scenes_are_refused_by_field() {
 
 #[test]
 fn drop_corner_from_the_command_line() {
-    let d = std::env::temp_dir().join(format!("impactmc-drop-cli-{}", std::process::id()));
+    let d = scratch("drop-cli");
     let _ = std::fs::remove_dir_all(&d);
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .args([
             "run",
             "configs/drop_corner.toml",
@@ -254,7 +253,7 @@ fn drop_corner_from_the_command_line() {
         serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["effects"]["flight"], true);
     // `inspect` reads a drop folder too.
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .arg("inspect")
         .arg(&d)
         .output()

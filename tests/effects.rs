@@ -4,19 +4,17 @@
 //! that were not requested are not reported; a constant |ω⁺| is counted
 //! exactly.
 
-use std::path::Path;
+mod support;
 
-use impactmc::engine::{
-    evaluate_samples, evaluate_samples_with, run, Keep, KernelVariant, RunOptions,
-};
+use support::{repo, scratch};
+
+use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, Keep, RunOptions};
+use impactmc::kernel::KernelVariant;
 use impactmc::physics::Law;
 use impactmc::sampler::{Inputs, Sampler};
-use impactmc::scene::{load_scene, Overrides, Scene};
-use impactmc::summary::Summary;
+use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::output::summary::Summary;
 
-fn repo(rel: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
 
 fn shipped(name: &str, precision: &str, samples: u64) -> Scene {
     shipped_with(name, precision, samples, None)
@@ -32,7 +30,7 @@ fn shipped_with(
     load_scene(
         &repo(&format!("configs/{name}.toml")),
         &Overrides {
-            precision: Some(precision.into()),
+            precision: Some(precision.parse().expect("f32 or f64")),
             samples: Some(samples),
             laws: Some(vec!["newton".into(), "paper".into()]),
             quantiles,
@@ -49,14 +47,14 @@ fn edited(name: &str, edits: &[(&str, &str)], precision: &str, tag: &str) -> Sce
         assert!(text.contains(a), "{name}: no {a:?}");
         text = text.replacen(a, b, 1);
     }
-    let d = std::env::temp_dir().join(format!("impactmc-effects-{tag}-{}", std::process::id()));
+    let d = scratch(&format!("effects-{tag}"));
     std::fs::create_dir_all(&d).unwrap();
     let p = d.join("scene.toml");
     std::fs::write(&p, text).unwrap();
     load_scene(
         &p,
         &Overrides {
-            precision: Some(precision.into()),
+            precision: Some(precision.parse().expect("f32 or f64")),
             samples: Some(100_000),
             laws: Some(vec!["newton".into(), "paper".into()]),
             ..Overrides::default()
@@ -342,7 +340,7 @@ fn bad_statistics_are_named() {
                 &format!("[statistics]\nquantiles = {quantiles}\n\n[body]"),
                 1,
             );
-        let d = std::env::temp_dir().join(format!("impactmc-effects-bad-{}", std::process::id()));
+        let d = scratch("effects-bad");
         std::fs::create_dir_all(&d).unwrap();
         let p = d.join("scene.toml");
         std::fs::write(&p, text).unwrap();

@@ -4,16 +4,17 @@
 
 mod support;
 
-use std::path::Path;
+use support::{repo, scratch};
+
 
 use glam::{DMat3, DVec3};
 use impactmc::engine::{run, RunOptions};
-use impactmc::scene::{load_scene, Overrides, Scene};
-use impactmc::summary::{StatSummary, Summary};
+use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::output::summary::{StatSummary, Summary};
 
 fn scene(name: &str, o: Overrides) -> Scene {
     load_scene(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml")),
+        &repo(&format!("configs/{name}.toml")),
         &o,
     )
     .unwrap()
@@ -43,13 +44,13 @@ fn without_timing(s: &Summary) -> serde_json::Value {
 #[test]
 fn same_seed_same_summary_for_1_and_2_threads() {
     // Every histogram the engine can keep, not only the default's.
-    let all = Some(impactmc::scene::STATISTIC_NAMES.map(String::from).to_vec());
+    let all = Some(impactmc::config::STATISTIC_NAMES.map(String::from).to_vec());
     for precision in ["f32", "f64"] {
         let s = scene(
             "corner3",
             Overrides {
                 samples: Some(300_001),
-                precision: Some(precision.into()),
+                precision: Some(precision.parse().expect("f32 or f64")),
                 laws: Some(vec!["newton".into(), "paper".into(), "pgs4".into()]),
                 quantiles: all.clone(),
                 ..Overrides::default()
@@ -72,7 +73,7 @@ fn same_seed_same_summary_for_1_and_2_threads() {
             Overrides {
                 samples: Some(300_001),
                 seed: Some(43),
-                precision: Some(precision.into()),
+                precision: Some(precision.parse().expect("f32 or f64")),
                 laws: Some(vec!["newton".into(), "paper".into(), "pgs4".into()]),
                 quantiles: all.clone(),
                 ..Overrides::default()
@@ -117,7 +118,7 @@ fn uniform_orientations_make_the_body_frame_normal_uniform() {
         let s = scene(
             "floor",
             Overrides {
-                precision: Some(precision.into()),
+                precision: Some(precision.parse().expect("f32 or f64")),
                 ..Overrides::default()
             },
         );
@@ -129,9 +130,9 @@ fn uniform_orientations_make_the_body_frame_normal_uniform() {
         );
     }
     // The test has power: uniform Bryan angles are not uniform on SO(3).
-    let dir = std::env::temp_dir().join(format!("impactmc-bryan-{}", std::process::id()));
+    let dir = scratch("bryan");
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/floor.toml"))
+    let text = std::fs::read_to_string(repo("configs/floor.toml"))
         .unwrap()
         .replace(
             "distribution = \"uniform\"\n\n[velocity]",
@@ -171,7 +172,7 @@ fn floor_scene_agrees_with_independent_reference_statistics() {
             Overrides {
                 samples: Some(4_000_000),
                 seed: Some(2026),
-                precision: Some(precision.into()),
+                precision: Some(precision.parse().expect("f32 or f64")),
                 laws: Some(vec!["paper".into(), "newton".into(), "poisson".into()]),
                 ..Overrides::default()
             },
@@ -236,9 +237,9 @@ fn planes_outside_the_placement_are_checked_per_sample() {
     // h ∈ [1, 2] above the floor and reaches 2h, so tall poses penetrate the
     // ceiling. They are counted as `penetrating` and left out of the impact
     // statistics, at the analytic rate.
-    let dir = std::env::temp_dir().join(format!("impactmc-ceiling-{}", std::process::id()));
+    let dir = scratch("ceiling");
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/floor.toml"))
+    let text = std::fs::read_to_string(repo("configs/floor.toml"))
         .unwrap()
         .replace(
             "[placement]",
@@ -251,7 +252,7 @@ fn planes_outside_the_placement_are_checked_per_sample() {
             &path,
             &Overrides {
                 samples: Some(20_000),
-                precision: Some(precision.into()),
+                precision: Some(precision.parse().expect("f32 or f64")),
                 ..Overrides::default()
             },
         )
@@ -288,7 +289,8 @@ fn planes_outside_the_placement_are_checked_per_sample() {
 /// the one merge tree, so their statistics are bit-identical.
 #[test]
 fn summary_only_and_per_sample_runs_merge_alike() {
-    use impactmc::engine::{run_with_samples, SampleRows};
+    use impactmc::engine::run_with_samples;
+    use impactmc::output::samples::SampleRows;
     let s = scene(
         "corner3",
         Overrides {
@@ -299,7 +301,7 @@ fn summary_only_and_per_sample_runs_merge_alike() {
     );
     let plain = summary(&s, 2);
     let mut rows = 0usize;
-    let mut sink = |r: SampleRows| -> Result<(), String> {
+    let mut sink = |r: SampleRows| -> Result<(), impactmc::engine::SinkError> {
         rows += r.len();
         Ok(())
     };

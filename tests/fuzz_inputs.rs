@@ -8,9 +8,9 @@ mod support;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use impactmc::case::{parse_case, Case};
+use impactmc::config::case::{parse_case, Case};
 use impactmc::engine::{run as run_scene, RunOptions};
-use impactmc::scene::Scene;
+use impactmc::config::Scene;
 use proptest::prelude::*;
 use support::scenes::run;
 

@@ -4,7 +4,7 @@
 
 mod support;
 
-use impactmc::case::{Case, CaseInput, CaseOutput};
+use impactmc::config::case::{Case, CaseInput, CaseOutput};
 use serde::Deserialize;
 
 #[derive(Deserialize)]

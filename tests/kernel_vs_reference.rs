@@ -8,7 +8,7 @@ use glam::{DMat3, DVec3};
 use impactmc::engine::evaluate_samples;
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use impactmc::sampler::Sampler;
-use impactmc::scene::Scene;
+use impactmc::config::Scene;
 
 const SCENES: [&str; 3] = ["floor", "corner2_paper", "corner3"];
 const LAWS: [Law; 5] = [

@@ -6,8 +6,12 @@
 //! Without the Python readers the test says so and passes, unless
 //! `IMPACTMC_REQUIRE_READERS=1` (set by .ci/run), where it fails.
 
-use std::path::Path;
+mod support;
+
 use std::process::Command;
+
+use support::{repo, bin, scratch};
+
 
 fn readers_available() -> bool {
     Command::new("python3")
@@ -29,10 +33,10 @@ fn python_readers_agree_with_the_run() {
         );
         return;
     }
-    let dir = std::env::temp_dir().join(format!("impactmc-readers-{}", std::process::id()));
+    let dir = scratch("readers");
     let _ = std::fs::remove_dir_all(&dir);
     let samples = 50_000u64;
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .args([
             "run",
             concat!(env!("CARGO_MANIFEST_DIR"), "/configs/corner3.toml"),
@@ -81,7 +85,7 @@ fn python_readers_agree_with_the_run() {
     });
     let exp_path = dir.join("expected.json");
     std::fs::write(&exp_path, expected.to_string()).unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/check_outputs.py");
+    let script = repo("tests/python/check_outputs.py");
     let check = Command::new("python3")
         .arg(&script)
         .arg(&dir)

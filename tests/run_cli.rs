@@ -1,22 +1,16 @@
 //! `impactmc run` from the command line: scene errors (file, line, field,
 //! value; exit 2), output folder rules, and the JSON summary's public keys.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod support;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_impactmc"))
-}
+use support::{repo, bin, tmpdir};
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("impactmc-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use std::path::Path;
+
+
 
 fn corner3_text() -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/corner3.toml"))
+    std::fs::read_to_string(repo("configs/corner3.toml"))
         .unwrap()
 }
 

@@ -4,25 +4,20 @@
 //! fields named; the Slurm job script works with SLURM_ARRAY_TASK_ID set by
 //! a loop.
 
+mod support;
+
+use support::{bin, repo};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use polars::prelude::*;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_impactmc"))
-}
 
 fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("impactmc-shards-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    support::tmpdir(&format!("shards-{tag}"))
 }
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
 
 /// corner3 with two laws (so paired differences are merged too), small
 /// batches so that 40 000 samples make 40 batches (39 full, one short).

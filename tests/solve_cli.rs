@@ -2,11 +2,15 @@
 //! stdin, TOML, and one clear message with exit code 2 for each kind of bad
 //! input (snapshots of the messages people read).
 
+mod support;
+
+use support::{bin};
+
 use std::io::Write;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
 fn solve_stdin(input: &str) -> (i32, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let mut child = bin()
         .args(["solve", "-"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -37,7 +41,7 @@ const GOOD: &str = r#"{"body": {"semi_axes": [1, 1, 2], "mass": 500},
 
 #[test]
 fn paper_example_from_configs_solves() {
-    let out = Command::new(env!("CARGO_BIN_EXE_impactmc"))
+    let out = bin()
         .args([
             "solve",
             concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper_example.json"),

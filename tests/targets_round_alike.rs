@@ -13,7 +13,7 @@ use impactmc::lanes::Real;
 use impactmc::physics::Law;
 use impactmc::sampler::{Inputs, Sampler};
 
-fn bits<T: Real>(rows: &[[T; impactmc::sampler::BLOCK]]) -> Vec<u64> {
+fn bits<T: Real>(rows: &[[T; impactmc::lanes::dispatch::BLOCK]]) -> Vec<u64> {
     rows.iter()
         .flat_map(|r| r.iter().map(|x| x.to_f64().to_bits()))
         .collect()

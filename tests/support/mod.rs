@@ -3,15 +3,40 @@
 
 pub mod scenes;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `impactmc` binary of this build.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_impactmc"))
+}
+
+/// A path inside the repository.
+pub fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// A scratch path for one test (`impactmc-TAG-PID` in the temp folder),
+/// not created.
+pub fn scratch(tag: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("impactmc-{tag}-{}", std::process::id()))
+}
+
+/// A fresh, empty scratch folder for one test.
+pub fn tmpdir(tag: &str) -> PathBuf {
+    let d = scratch(tag);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
 
 /// A shipped scene (`configs/NAME.toml`) in the given precision.
-pub fn shipped_scene(name: &str, precision: &str) -> impactmc::scene::Scene {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
-    impactmc::scene::load_scene(
+pub fn shipped_scene(name: &str, precision: &str) -> impactmc::config::Scene {
+    let path = repo(&format!("configs/{name}.toml"));
+    impactmc::config::load_scene(
         &path,
-        &impactmc::scene::Overrides {
-            precision: Some(precision.into()),
+        &impactmc::config::Overrides {
+            precision: Some(precision.parse().expect("f32 or f64")),
             ..Default::default()
         },
     )
@@ -24,7 +49,7 @@ pub fn shared_dir() -> PathBuf {
     if let Ok(p) = std::env::var("IMPACTMC_SHARED") {
         return PathBuf::from(p);
     }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared")
+    repo("../shared")
 }
 
 pub fn shared_file(rel: &str) -> String {
