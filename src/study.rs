@@ -440,8 +440,8 @@ pub struct DropStudy {
 
 /// What [`run`] returns: the study of a contact scene or of a drop scene.
 pub enum Outcome {
-    Contacts(Study),
-    Drops(DropStudy),
+    Contacts(Box<Study>),
+    Drops(Box<DropStudy>),
 }
 
 impl Outcome {
@@ -480,7 +480,9 @@ pub fn run(
 ) -> Result<Outcome, StudyError> {
     let (_, points) = plan(path, overrides)?;
     if points[0].scene.drop_box().is_none() {
-        return Ok(Outcome::Contacts(run_study(path, overrides, opts, dir)?));
+        return Ok(Outcome::Contacts(Box::new(run_study(
+            path, overrides, opts, dir,
+        )?)));
     }
     if points.len() > 1 || opts.shard.is_some() || points[0].scene.effects().per_sample {
         return Err(StudyError::Unsupported(format!(
@@ -491,10 +493,10 @@ pub fn run(
     let scene = points.into_iter().next().expect("one point").scene;
     let started = SystemTime::now();
     let run = crate::drop::run_drop(&scene, opts.threads).map_err(RunError::Pool)?;
-    Ok(Outcome::Drops(DropStudy {
+    Ok(Outcome::Drops(Box::new(DropStudy {
         scene,
         run,
         started,
         dir: dir.to_path_buf(),
-    }))
+    })))
 }

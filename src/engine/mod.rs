@@ -282,6 +282,7 @@ pub fn run_with_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stats::accumulators::Slot;
 
     /// Every accumulator field by path, as comparable text.
     fn slots(acc: &mut RunAcc) -> Vec<(String, String)> {

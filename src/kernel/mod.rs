@@ -202,13 +202,12 @@ impl<T: Real, const N: usize> LawOut<T, N> {
 
 #[cfg(test)]
 mod tests {
-    use super::fallback::*;
     use super::geometry::*;
-    use super::impulses::*;
     use super::lcp::*;
     use super::*;
     use crate::config::{load_scene, Overrides};
-    use crate::lanes::mix64;
+    use crate::lanes::dispatch::BLOCK;
+    use crate::sampler::rng::mix64;
 
     fn consts<T: Real, const N: usize>(name: &str) -> Consts<T, N> {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

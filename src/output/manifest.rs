@@ -206,6 +206,17 @@ impl ManifestHead {
     }
 }
 
+/// CPU time (user + system) of this process so far, from
+/// `/proc/self/stat`; `None` where that is not available.
+pub fn process_cpu_seconds() -> Option<f64> {
+    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -216,15 +227,4 @@ mod tests {
         assert_eq!(utc_string(t), "2026-11-18T11:06:40Z");
         assert_eq!(utc_string(UNIX_EPOCH), "1970-01-01T00:00:00Z");
     }
-}
-
-/// CPU time (user + system) of this process so far, from
-/// `/proc/self/stat`; `None` where that is not available.
-pub fn process_cpu_seconds() -> Option<f64> {
-    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let after = stat.rsplit_once(')')?.1;
-    let f: Vec<&str> = after.split_whitespace().collect();
-    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
 }
