@@ -8,11 +8,11 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use impactmc::engine::{run, sample_block, Keep, RunOptions};
-use impactmc::physics::{solve_impact, Law, Pose, State};
-use impactmc::lanes::dispatch::BLOCK;
-use impactmc::sampler::{Inputs, Sampler};
 use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::engine::{run, sample_block, Keep, RunOptions};
+use impactmc::lanes::dispatch::BLOCK;
+use impactmc::physics::{solve_impact, Law, Pose, State};
+use impactmc::sampler::{Inputs, Sampler};
 
 const SAMPLES: u64 = 1 << 18;
 

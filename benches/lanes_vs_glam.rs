@@ -13,12 +13,12 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Mat3A, Vec3A};
+use impactmc::config::{load_scene, Overrides};
 use impactmc::engine::kernel_block;
 use impactmc::kernel::{Consts, Geometry, LawOut};
-use impactmc::physics::Law;
 use impactmc::lanes::dispatch::BLOCK;
+use impactmc::physics::Law;
 use impactmc::sampler::{Inputs, Sampler};
-use impactmc::config::{load_scene, Overrides};
 
 const BLOCKS: usize = 256;
 

@@ -7,19 +7,18 @@
 
 mod support;
 
-use support::{repo, bin, scratch};
-
+use support::{bin, repo, scratch};
 
 use polars::prelude::SerReader;
 
 use glam::DVec3;
 use impactmc::accuracy::{compliant_posts, errors, sample_input, Post};
+use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::evaluate_samples;
 use impactmc::physics::{
     solve_compliant, solve_impact, support_point_lagrange, CompliantParams, ContactGeometry, Law,
     Plane,
 };
-use impactmc::config::{load_scene, Overrides, Scene};
 
 fn scene(name: &str, precision: &str) -> Scene {
     load_scene(
@@ -225,10 +224,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
     let d = scratch("accuracy");
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    let text = std::fs::read_to_string(
-        repo("configs/accuracy_corner3.toml"),
-    )
-    .unwrap();
+    let text = std::fs::read_to_string(repo("configs/accuracy_corner3.toml")).unwrap();
     let small = text
         .lines()
         .map(|l| {

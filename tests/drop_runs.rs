@@ -8,10 +8,8 @@ mod support;
 
 use support::{bin, repo, scratch};
 
-
-use impactmc::drop::run_drop;
 use impactmc::config::{load_scene, Overrides, Scene};
-
+use impactmc::drop::run_drop;
 
 fn scene_text(text: &str, tag: &str) -> Result<Scene, String> {
     let d = scratch(&format!("drop-{tag}"));
@@ -253,11 +251,7 @@ fn drop_corner_from_the_command_line() {
         serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["effects"]["flight"], true);
     // `inspect` reads a drop folder too.
-    let out = bin()
-        .arg("inspect")
-        .arg(&d)
-        .output()
-        .unwrap();
+    let out = bin().arg("inspect").arg(&d).output().unwrap();
     assert!(
         out.status.success(),
         "{}",

@@ -8,13 +8,12 @@ mod support;
 
 use support::{repo, scratch};
 
+use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, Keep, RunOptions};
 use impactmc::kernel::KernelVariant;
+use impactmc::output::summary::Summary;
 use impactmc::physics::Law;
 use impactmc::sampler::{Inputs, Sampler};
-use impactmc::config::{load_scene, Overrides, Scene};
-use impactmc::output::summary::Summary;
-
 
 fn shipped(name: &str, precision: &str, samples: u64) -> Scene {
     shipped_with(name, precision, samples, None)

@@ -6,18 +6,13 @@ mod support;
 
 use support::{repo, scratch};
 
-
 use glam::{DMat3, DVec3};
-use impactmc::engine::{run, RunOptions};
 use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::engine::{run, RunOptions};
 use impactmc::output::summary::{StatSummary, Summary};
 
 fn scene(name: &str, o: Overrides) -> Scene {
-    load_scene(
-        &repo(&format!("configs/{name}.toml")),
-        &o,
-    )
-    .unwrap()
+    load_scene(&repo(&format!("configs/{name}.toml")), &o).unwrap()
 }
 
 fn summary(s: &Scene, threads: usize) -> Summary {

@@ -38,7 +38,11 @@ fn fingerprint() -> Vec<String> {
                     samples: Some(150_000),
                     seed: Some(2026),
                     precision: Some(precision.parse().expect("f32 or f64")),
-                    laws: Some(["newton", "paper", "poisson", "pgs20"].map(String::from).into()),
+                    laws: Some(
+                        ["newton", "paper", "poisson", "pgs20"]
+                            .map(String::from)
+                            .into(),
+                    ),
                     ..Default::default()
                 },
             )

@@ -9,8 +9,8 @@ mod support;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use impactmc::config::case::{parse_case, Case};
-use impactmc::engine::{run as run_scene, RunOptions};
 use impactmc::config::Scene;
+use impactmc::engine::{run as run_scene, RunOptions};
 use proptest::prelude::*;
 use support::scenes::run;
 

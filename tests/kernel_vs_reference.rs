@@ -5,10 +5,10 @@
 mod support;
 
 use glam::{DMat3, DVec3};
+use impactmc::config::Scene;
 use impactmc::engine::evaluate_samples;
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use impactmc::sampler::Sampler;
-use impactmc::config::Scene;
 
 const SCENES: [&str; 3] = ["floor", "corner2_paper", "corner3"];
 const LAWS: [Law; 5] = [

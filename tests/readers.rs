@@ -10,8 +10,7 @@ mod support;
 
 use std::process::Command;
 
-use support::{repo, bin, scratch};
-
+use support::{bin, repo, scratch};
 
 fn readers_available() -> bool {
     Command::new("python3")

@@ -3,15 +3,12 @@
 
 mod support;
 
-use support::{repo, bin, tmpdir};
+use support::{bin, repo, tmpdir};
 
 use std::path::Path;
 
-
-
 fn corner3_text() -> String {
-    std::fs::read_to_string(repo("configs/corner3.toml"))
-        .unwrap()
+    std::fs::read_to_string(repo("configs/corner3.toml")).unwrap()
 }
 
 /// Runs a scene text; returns (exit code, stdout, stderr).

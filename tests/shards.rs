@@ -13,11 +13,9 @@ use std::process::{Command, Output};
 
 use polars::prelude::*;
 
-
 fn tmpdir(tag: &str) -> PathBuf {
     support::tmpdir(&format!("shards-{tag}"))
 }
-
 
 /// corner3 with two laws (so paired differences are merged too), small
 /// batches so that 40 000 samples make 40 batches (39 full, one short).

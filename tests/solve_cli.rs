@@ -4,7 +4,7 @@
 
 mod support;
 
-use support::{bin};
+use support::bin;
 
 use std::io::Write;
 use std::process::Stdio;
