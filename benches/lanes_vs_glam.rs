@@ -1,6 +1,6 @@
-//! The design question of the engine issue: glam's 4-lane SSE2 types,
+//! Why the lanes are our own: glam's 4-lane SSE2 types,
 //! sample by sample (array of structures), against the SoA lane kernel with
-//! run-time dispatch (AVX-512 here), on identical pre-drawn inputs of S1
+//! run-time dispatch (the widest SIMD the CPU has), on identical pre-drawn inputs of S1
 //! (one floor, Newton = the closed form, f32). Kernel only: no sampling, no
 //! statistics. Both compute the support point, lever arm, normal velocity,
 //! G, the impulse, v⁺, ω⁺ and T⁺; the lane kernel also computes its

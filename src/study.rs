@@ -402,17 +402,22 @@ pub struct Prepared {
     pub name: String,
     /// The effect set (`effects: …`).
     pub effects_line: String,
-    /// The kernel instantiation (`kernel: …`), for contact scenes.
+    /// The kernel instantiation (`kernel: …`); none for a drop scene.
     pub kernel_line: Option<String>,
-    pub drop: bool,
 }
 
-/// Validates a scene file (every sweep point) with its overrides and says
-/// what it will run.
-pub fn prepare(path: &Path, overrides: &Overrides, keep: Keep) -> Result<Prepared, StudyError> {
+/// Validates a scene file (every sweep point) with its overrides and the
+/// run's options, and says what it will run.
+pub fn prepare(
+    path: &Path,
+    overrides: &Overrides,
+    opts: &RunOptions,
+) -> Result<Prepared, StudyError> {
     let (_, points) = plan(path, overrides)?;
+    check_drop_request(path, &points, opts)?;
     let scene = &points[0].scene;
     let drop = scene.drop_box().is_some();
+    let keep = opts.keep;
     let kernel_line = (!drop).then(|| {
         let variant = KernelVariant::of(scene, keep);
         let kept = if keep == Keep::NONE {
@@ -426,7 +431,6 @@ pub fn prepare(path: &Path, overrides: &Overrides, keep: Keep) -> Result<Prepare
         name: scene.name().to_string(),
         effects_line: scene.effects().line(),
         kernel_line,
-        drop,
     })
 }
 
@@ -484,12 +488,7 @@ pub fn run(
             path, overrides, opts, dir,
         )?)));
     }
-    if points.len() > 1 || opts.shard.is_some() || points[0].scene.effects().per_sample {
-        return Err(StudyError::Unsupported(format!(
-            "{}: drop scenes (placement.drop) do not support sweeps, --shard or per-sample rows yet",
-            path.display()
-        )));
-    }
+    check_drop_request(path, &points, opts)?;
     let scene = points.into_iter().next().expect("one point").scene;
     let started = SystemTime::now();
     let run = crate::drop::run_drop(&scene, opts.threads).map_err(RunError::Pool)?;
@@ -499,4 +498,23 @@ pub fn run(
         started,
         dir: dir.to_path_buf(),
     })))
+}
+
+/// Refuses what the drop engine cannot do yet: sweeps, shards and
+/// per-sample rows of a drop scene.
+fn check_drop_request(
+    path: &Path,
+    points: &[crate::config::sweep::Point],
+    opts: &RunOptions,
+) -> Result<(), StudyError> {
+    let scene = &points[0].scene;
+    if scene.drop_box().is_some()
+        && (points.len() > 1 || opts.shard.is_some() || scene.effects().per_sample)
+    {
+        return Err(StudyError::Unsupported(format!(
+            "{}: drop scenes (placement.drop) do not support sweeps, --shard or per-sample rows yet",
+            path.display()
+        )));
+    }
+    Ok(())
 }

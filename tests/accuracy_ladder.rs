@@ -1,4 +1,4 @@
-//! The accuracy ladder's shape (issue 6), not its timings: PGS error falls
+//! The accuracy ladder's shape, not its timings: PGS error falls
 //! monotonically with sweeps and reaches Newton to 1e-9 within 64 sweeps on
 //! S3; the compliant model converges to the rigid law with one contact as
 //! the stiffness grows; the compliant error falls as the step shrinks; the

@@ -1,4 +1,4 @@
-//! An independent check of the one-contact impulse (issue 2): a stiff
+//! An independent check of the one-contact impulse: a stiff
 //! frictionless linear spring–dashpot contact, integrated with RK4 through the
 //! impact together with the full rigid-body motion (rotation during contact,
 //! the contact point moving over the surface), converges to the closed-form

@@ -1,4 +1,4 @@
-//! Drop studies and effect sets (issue 7): the derived effect sets of the
+//! Drop studies and effect sets: the derived effect sets of the
 //! shipped scenes (a snapshot written by hand from the scenes' geometry);
 //! a bouncing sphere against its closed form (energy ratio k² per bounce,
 //! flight times 2k^(n−1)·u/g); the same answer on 1 and 2 threads; and the

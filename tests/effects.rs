@@ -1,4 +1,4 @@
-//! Effects compiled out (issue 7): every specialised kernel (no rotational
+//! Effects compiled out: every specialised kernel (no rotational
 //! coupling, no LCP, neither) gives the answers of the kernel that computes
 //! every effect, sample by sample and in the run statistics; statistics
 //! that were not requested are not reported; a constant |ω⁺| is counted
@@ -274,7 +274,7 @@ fn constant_spin_is_counted_exactly() {
 
 #[test]
 fn only_requested_statistics_are_reported() {
-    // Default: quantiles of the energy ratio (issue #3's JSON), moments of
+    // Default: quantiles of the energy ratio, moments of
     // everything else, no per-set groups.
     let s = edited("corner3", &[], "f32", "stats0");
     assert!(s

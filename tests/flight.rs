@@ -1,4 +1,4 @@
-//! Free flight and time of impact (issue 7, physics only): a dropped sphere
+//! Free flight and time of impact, physics only: a dropped sphere
 //! hits at sqrt(v0² + 2gH); axisymmetric precession in closed form matches
 //! an independent RK4 integration and conserves L and T exactly; RK4 for
 //! triaxial bodies conserves them at fourth order; conservative advancement

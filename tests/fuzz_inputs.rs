@@ -1,4 +1,4 @@
-//! Malformed and extreme case and scene files (issue 5): property tests that
+//! Malformed and extreme case and scene files: property tests that
 //! mutate valid inputs (numbers replaced by extreme or non-finite values,
 //! fields dropped, duplicated or renamed, text truncated) and require that
 //! parsing, validation and solving never panic, and that every rejection is

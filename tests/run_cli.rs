@@ -144,7 +144,7 @@ fn output_folder_rules_and_json_summary() {
     for key in ["samples", "impacts", "stats", "fractions", "active_sets"] {
         assert!(all.get(key).is_some(), "missing all.{key}");
     }
-    // The interface: quantiles of the energy ratio; moments of all.
+    // The default: quantiles of the energy ratio; moments of all.
     for stat in ["energy_ratio", "omega_after_norm", "velocity_after_norm"] {
         for f in ["mean", "ci95", "sd", "min", "max"] {
             assert!(all["stats"][stat][f].is_number(), "{stat}.{f}");

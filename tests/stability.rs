@@ -1,4 +1,4 @@
-//! The hard-case families of `impactmc::stress` (issue 5) at CI size: no
+//! The hard-case families of `impactmc::stress` at CI size: no
 //! non-finite result anywhere, every kernel error within its bound (derived
 //! from cond(G) where the problem is ill-conditioned), and the flags the
 //! geometry demands. `impactmc stress` runs the same families bigger.

@@ -95,27 +95,27 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         },
         |k, e| k.union(*e),
     );
-    // Validate the scene (every sweep point) and the folder before any work;
-    // what will run goes to stderr (stdout may be JSON).
-    let prepared = study::prepare(&path, &overrides, keep)?;
-    eprintln!("{}", prepared.effects_line);
-    if let Some(line) = &prepared.kernel_line {
-        eprintln!("{line}");
-    }
-    let name = &prepared.name;
-    let dir = args.out.clone().unwrap_or_else(|| match args.shard {
-        Some(s) if !prepared.drop => {
-            PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))
-        }
-        _ => PathBuf::from("results").join(name),
-    });
-    prepare_dir(&dir, args.force).map_err(Failure::bad_input)?;
     let opts = RunOptions {
         threads: args.threads,
         progress: true,
         shard: args.shard,
         keep,
     };
+    // Validate the scene (every sweep point) and the folder before any work;
+    // what will run goes to stderr (stdout may be JSON).
+    let prepared = study::prepare(&path, &overrides, &opts)?;
+    eprintln!("{}", prepared.effects_line);
+    if let Some(line) = &prepared.kernel_line {
+        eprintln!("{line}");
+    }
+    let name = &prepared.name;
+    let dir = args.out.clone().unwrap_or_else(|| match args.shard {
+        Some(s) => {
+            PathBuf::from("results").join(format!("{name}-shard-{}-of-{}", s.index, s.count))
+        }
+        None => PathBuf::from("results").join(name),
+    });
+    prepare_dir(&dir, args.force).map_err(Failure::bad_input)?;
     let outcome = study::run(&path, &overrides, &opts, &dir)?;
     let mut text = outcome.text();
     if let (Some(s), Outcome::Contacts(study)) = (args.shard, &outcome) {

@@ -71,7 +71,170 @@ fn vector_dist(field: &str, raw: &RawVector) -> Result<VectorDist, Bad> {
     })
 }
 
+/// `laws`: known, and each once.
+fn laws(raw: &RawScene) -> Result<Vec<Law>, Bad> {
+    if raw.laws.is_empty() {
+        return Err(bad(&["laws"], "must list at least one law"));
+    }
+    let mut laws = Vec::new();
+    for (i, s) in raw.laws.iter().enumerate() {
+        let idx = i.to_string();
+        let law = parse_law(s).ok_or_else(|| {
+            bad(
+                &["laws", &idx],
+                format!("unknown law {s:?}; expected paper, newton, poisson or pgsN (N ≥ 1)"),
+            )
+        })?;
+        if laws.contains(&law) {
+            return Err(bad(&["laws", &idx], format!("law {s:?} is listed twice")));
+        }
+        laws.push(law);
+    }
+    Ok(laws)
+}
+
+/// `[body]`.
+fn body(raw: &RawScene) -> Result<Ellipsoid, Bad> {
+    Ellipsoid::new(raw.body.semi_axes, raw.body.mass).map_err(|e| match e {
+        crate::physics::BodyError::SemiAxis { .. } => bad(&["body", "semi_axes"], e.to_string()),
+        crate::physics::BodyError::Mass(_) => bad(&["body", "mass"], e.to_string()),
+    })
+}
+
+/// `[[planes]]`: valid planes with unique names.
+fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
+    if raw.planes.is_empty() {
+        return Err(bad(&["planes"], "a scene needs at least one plane"));
+    }
+    let mut planes: Vec<NamedPlane> = Vec::new();
+    for (i, p) in raw.planes.iter().enumerate() {
+        let idx = i.to_string();
+        let plane = Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
+            let f = match e {
+                crate::physics::PlaneError::Normal(_) => "normal",
+                crate::physics::PlaneError::Offset(_) => "offset",
+                crate::physics::PlaneError::Restitution(_) => "restitution",
+            };
+            bad(&["planes", &idx, f], e.to_string())
+        })?;
+        if p.name.is_empty() || p.name.contains('+') {
+            return Err(bad(
+                &["planes", &idx, "name"],
+                format!("must be non-empty without '+', got {:?}", p.name),
+            ));
+        }
+        if planes.iter().any(|q| q.name == p.name) {
+            return Err(bad(
+                &["planes", &idx, "name"],
+                format!("plane name {:?} is used twice", p.name),
+            ));
+        }
+        planes.push(NamedPlane {
+            name: p.name.clone(),
+            plane,
+        });
+    }
+    Ok(planes)
+}
+
+/// `placement.drop`: a box of start positions from which the body cannot
+/// touch any plane, whatever its orientation.
+fn drop_box(
+    raw: &RawScene,
+    body: &Ellipsoid,
+    planes: &[NamedPlane],
+) -> Result<Option<(DVec3, DVec3)>, Bad> {
+    Ok(match &raw.placement.drop {
+        None => None,
+        Some(d) => {
+            if !raw.placement.touching.is_empty() {
+                return Err(bad(
+                    &["placement"],
+                    format!(
+                        "give either touching or drop, not both (touching = {:?})",
+                        raw.placement.touching
+                    ),
+                ));
+            }
+            let lo = finite3(&["placement", "drop", "min"], d.min)?;
+            let hi = finite3(&["placement", "drop", "max"], d.max)?;
+            if lo.cmpgt(hi).any() {
+                return Err(bad(
+                    &["placement", "drop"],
+                    format!(
+                        "min must be ≤ max componentwise, got min {:?}, max {:?}",
+                        d.min, d.max
+                    ),
+                ));
+            }
+            // Every start must be clear of every plane whatever the
+            // orientation: the body fits in a ball of its largest semi-axis.
+            let reach = body.length_scale();
+            for p in planes {
+                let n = p.plane.normal();
+                let corner = DVec3::select(n.cmpge(DVec3::ZERO), lo, hi);
+                let d = p.plane.signed_distance(corner);
+                if !(d > reach) {
+                    return Err(bad(
+                        &["placement", "drop"],
+                        format!(
+                            "impossible placement: the drop box comes within {d} m of plane {:?} (its corner {:?}), but the body reaches {reach} m from its centre; raw value min {:?}, max {:?}",
+                            p.name,
+                            corner.to_array(),
+                            lo.to_array(),
+                            hi.to_array()
+                        ),
+                    ));
+                }
+            }
+            Some((lo, hi))
+        }
+    })
+}
+
+/// `[orientation]`.
+fn orientation(raw: &RawScene) -> Result<OrientationDist, Bad> {
+    Ok(match raw.orientation {
+        RawOrientation::Uniform => OrientationDist::Uniform,
+        RawOrientation::Fixed { bryan_deg } => {
+            let d = finite3(&["orientation", "bryan_deg"], bryan_deg)?;
+            OrientationDist::Fixed(matrix_from_bryan(Bryan {
+                psi: d.x.to_radians(),
+                theta: d.y.to_radians(),
+                phi: d.z.to_radians(),
+            }))
+        }
+        RawOrientation::BryanUniform {
+            psi_deg,
+            theta_deg,
+            phi_deg,
+        } => {
+            let mut low = DVec3::ZERO;
+            let mut high = DVec3::ZERO;
+            for (i, (name, r)) in [
+                ("psi_deg", psi_deg),
+                ("theta_deg", theta_deg),
+                ("phi_deg", phi_deg),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
+                    return Err(bad(
+                        &["orientation", name],
+                        format!("must be a finite [low, high] with low ≤ high, got {r:?}"),
+                    ));
+                }
+                low[i] = r[0].to_radians();
+                high[i] = r[1].to_radians();
+            }
+            OrientationDist::BryanUniform { low, high }
+        }
+    })
+}
+
 impl Scene {
+    /// Raw → validated, section by section; every default made explicit.
     pub(super) fn from_raw(raw: RawScene) -> Result<Self, Bad> {
         if raw.name.trim().is_empty() || raw.name.contains(['/', '\\']) {
             return Err(bad(
@@ -88,23 +251,7 @@ impl Scene {
                 format!("must be in 1..=2^53, got {}", raw.samples),
             ));
         }
-        if raw.laws.is_empty() {
-            return Err(bad(&["laws"], "must list at least one law"));
-        }
-        let mut laws = Vec::new();
-        for (i, s) in raw.laws.iter().enumerate() {
-            let idx = i.to_string();
-            let law = parse_law(s).ok_or_else(|| {
-                bad(
-                    &["laws", &idx],
-                    format!("unknown law {s:?}; expected paper, newton, poisson or pgsN (N ≥ 1)"),
-                )
-            })?;
-            if laws.contains(&law) {
-                return Err(bad(&["laws", &idx], format!("law {s:?} is listed twice")));
-            }
-            laws.push(law);
-        }
+        let laws = laws(&raw)?;
         let precision: Precision = raw.precision.parse().map_err(|m| bad(&["precision"], m))?;
         let batch_size = raw.batch_size.unwrap_or(65536);
         if !(batch_size.is_power_of_two() && (256..=1 << 22).contains(&batch_size)) {
@@ -113,89 +260,9 @@ impl Scene {
                 format!("must be a power of two in 256..=4194304, got {batch_size}"),
             ));
         }
-        let body = Ellipsoid::new(raw.body.semi_axes, raw.body.mass).map_err(|e| match e {
-            crate::physics::BodyError::SemiAxis { .. } => {
-                bad(&["body", "semi_axes"], e.to_string())
-            }
-            crate::physics::BodyError::Mass(_) => bad(&["body", "mass"], e.to_string()),
-        })?;
-        if raw.planes.is_empty() {
-            return Err(bad(&["planes"], "a scene needs at least one plane"));
-        }
-        let mut planes: Vec<NamedPlane> = Vec::new();
-        for (i, p) in raw.planes.iter().enumerate() {
-            let idx = i.to_string();
-            let plane = Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
-                let f = match e {
-                    crate::physics::PlaneError::Normal(_) => "normal",
-                    crate::physics::PlaneError::Offset(_) => "offset",
-                    crate::physics::PlaneError::Restitution(_) => "restitution",
-                };
-                bad(&["planes", &idx, f], e.to_string())
-            })?;
-            if p.name.is_empty() || p.name.contains('+') {
-                return Err(bad(
-                    &["planes", &idx, "name"],
-                    format!("must be non-empty without '+', got {:?}", p.name),
-                ));
-            }
-            if planes.iter().any(|q| q.name == p.name) {
-                return Err(bad(
-                    &["planes", &idx, "name"],
-                    format!("plane name {:?} is used twice", p.name),
-                ));
-            }
-            planes.push(NamedPlane {
-                name: p.name.clone(),
-                plane,
-            });
-        }
-        let drop = match &raw.placement.drop {
-            None => None,
-            Some(d) => {
-                if !raw.placement.touching.is_empty() {
-                    return Err(bad(
-                        &["placement"],
-                        format!(
-                            "give either touching or drop, not both (touching = {:?})",
-                            raw.placement.touching
-                        ),
-                    ));
-                }
-                let lo = finite3(&["placement", "drop", "min"], d.min)?;
-                let hi = finite3(&["placement", "drop", "max"], d.max)?;
-                if lo.cmpgt(hi).any() {
-                    return Err(bad(
-                        &["placement", "drop"],
-                        format!(
-                            "min must be ≤ max componentwise, got min {:?}, max {:?}",
-                            d.min, d.max
-                        ),
-                    ));
-                }
-                // Every start must be clear of every plane whatever the
-                // orientation: the body fits in a ball of its largest semi-axis.
-                let reach = body.length_scale();
-                for p in &planes {
-                    let n = p.plane.normal();
-                    let corner = DVec3::select(n.cmpge(DVec3::ZERO), lo, hi);
-                    let d = p.plane.signed_distance(corner);
-                    if !(d > reach) {
-                        return Err(bad(
-                            &["placement", "drop"],
-                            format!(
-                                "impossible placement: the drop box comes within {d} m of plane {:?} (its corner {:?}), but the body reaches {reach} m from its centre; raw value min {:?}, max {:?}",
-                                p.name,
-                                corner.to_array(),
-                                lo.to_array(),
-                                hi.to_array()
-                            ),
-                        ));
-                    }
-                }
-                Some((lo, hi))
-            }
-        };
+        let body = body(&raw)?;
+        let planes = planes(&raw)?;
+        let drop = drop_box(&raw, &body, &planes)?;
         let (touching, placement) = if drop.is_some() {
             (Vec::new(), Vec::new())
         } else {
@@ -217,43 +284,7 @@ impl Scene {
                 ))
             }
         };
-        let orientation = match raw.orientation {
-            RawOrientation::Uniform => OrientationDist::Uniform,
-            RawOrientation::Fixed { bryan_deg } => {
-                let d = finite3(&["orientation", "bryan_deg"], bryan_deg)?;
-                OrientationDist::Fixed(matrix_from_bryan(Bryan {
-                    psi: d.x.to_radians(),
-                    theta: d.y.to_radians(),
-                    phi: d.z.to_radians(),
-                }))
-            }
-            RawOrientation::BryanUniform {
-                psi_deg,
-                theta_deg,
-                phi_deg,
-            } => {
-                let mut low = DVec3::ZERO;
-                let mut high = DVec3::ZERO;
-                for (i, (name, r)) in [
-                    ("psi_deg", psi_deg),
-                    ("theta_deg", theta_deg),
-                    ("phi_deg", phi_deg),
-                ]
-                .into_iter()
-                .enumerate()
-                {
-                    if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
-                        return Err(bad(
-                            &["orientation", name],
-                            format!("must be a finite [low, high] with low ≤ high, got {r:?}"),
-                        ));
-                    }
-                    low[i] = r[0].to_radians();
-                    high[i] = r[1].to_radians();
-                }
-                OrientationDist::BryanUniform { low, high }
-            }
-        };
+        let orientation = orientation(&raw)?;
         let effects = Effects::derive(&raw, &body, &planes, &touching, drop.is_some(), tolerance)?;
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;

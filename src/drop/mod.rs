@@ -1,4 +1,4 @@
-//! Drop studies (issue 7): each sample is released from the scene's drop
+//! Drop studies: each sample is released from the scene's drop
 //! box with its drawn orientation and velocities, flies under gravity with
 //! torque-free rotation, hits the planes (time of impact by conservative
 //! advancement), and bounces up to `effects.bounces` times or until its

@@ -164,7 +164,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 || subtree(child(2 * node.index), leaf, accs),
                 || subtree(child(2 * node.index + 1), leaf, accs),
             );
-            left.merge(&right);
+            left.merge(&mut right);
             right.clear();
             accs.give(right);
             left

@@ -59,7 +59,7 @@ pub struct Manifest {
     pub threads: usize,
     pub machine: Machine,
     pub files: Vec<String>,
-    /// The effects simulated, declared and derived (scene.rs `Effects`).
+    /// The effects simulated, declared and derived ([`crate::config::Effects`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effects: Option<crate::config::Effects>,
     /// A shard run (`--shard I/N`): its index and count.

@@ -1,4 +1,4 @@
-//! Free flight between impacts (issue 7, physics only): the centre follows a
+//! Free flight between impacts, physics only: the centre follows a
 //! parabola under gravity and the body rotates torque-free (the paper's
 //! Euler equations, eq. 3). Time of impact with a set of planes is found by
 //! conservative advancement, which never steps past a contact.

@@ -77,93 +77,6 @@ impl LawAcc {
             groups: vec![GroupAcc::default(); 1 << contacts],
         }
     }
-
-    fn flush(&mut self) {
-        for s in [
-            &mut self.energy_ratio,
-            &mut self.omega_after_norm,
-            &mut self.velocity_after_norm,
-        ] {
-            s.flush();
-        }
-        for s in &mut self.impulse {
-            s.flush();
-        }
-        for m in &mut self.rebound {
-            m.flush();
-        }
-        for g in &mut self.groups {
-            g.energy_ratio.flush();
-            g.omega_after_norm.flush();
-            g.velocity_after_norm.flush();
-        }
-    }
-
-    /// Back to the state of `new`, keeping the histograms' tables (the
-    /// engine tests check every field through [`RunAcc::visit`]).
-    fn clear(&mut self) {
-        for c in [
-            &mut self.samples,
-            &mut self.impacts,
-            &mut self.energy_gain,
-            &mut self.degenerate,
-            &mut self.jammed,
-            &mut self.unsolved,
-            &mut self.recomputed,
-            &mut self.penetrating,
-        ] {
-            *c = 0;
-        }
-        self.active_sets.fill(0);
-        let headline = [
-            &mut self.energy_ratio,
-            &mut self.omega_after_norm,
-            &mut self.velocity_after_norm,
-        ];
-        for s in headline
-            .into_iter()
-            .chain(&mut self.impulse)
-            .chain(&mut self.rebound)
-        {
-            s.clear();
-        }
-        for g in &mut self.groups {
-            (g.samples, g.impacts) = (0, 0);
-            g.energy_ratio.clear();
-            g.omega_after_norm.clear();
-            g.velocity_after_norm.clear();
-        }
-    }
-
-    fn merge(&mut self, o: &LawAcc) {
-        self.samples += o.samples;
-        self.impacts += o.impacts;
-        self.energy_gain += o.energy_gain;
-        self.degenerate += o.degenerate;
-        self.jammed += o.jammed;
-        self.unsolved += o.unsolved;
-        self.recomputed += o.recomputed;
-        self.penetrating += o.penetrating;
-        for (a, b) in self.active_sets.iter_mut().zip(&o.active_sets) {
-            *a += b;
-        }
-        self.energy_ratio.merge(&o.energy_ratio);
-        self.omega_after_norm.merge(&o.omega_after_norm);
-        self.velocity_after_norm.merge(&o.velocity_after_norm);
-        for (a, b) in self.impulse.iter_mut().zip(&o.impulse) {
-            a.merge(b);
-        }
-        for (a, b) in self.rebound.iter_mut().zip(&o.rebound) {
-            a.merge(b);
-        }
-        for (a, b) in self.groups.iter_mut().zip(&o.groups) {
-            a.samples += b.samples;
-            a.impacts += b.impacts;
-            a.energy_ratio.merge(&b.energy_ratio);
-            a.omega_after_norm.merge(&b.omega_after_norm);
-            a.velocity_after_norm.merge(&b.velocity_after_norm);
-        }
-    }
 }
 
 impl RunAcc {
@@ -178,21 +91,21 @@ impl RunAcc {
     /// so that a run reuses its batch accumulators instead of allocating
     /// (and page-faulting in) fresh ones per batch.
     pub fn clear(&mut self) {
-        for l in &mut self.laws {
-            l.clear();
-        }
-        self.pairs.fill(PairAcc::default());
+        self.walk(&mut |_, slot| match slot {
+            Slot::Count(c) => *c = 0,
+            Slot::Moments(m) => *m = Moments::default(),
+            Slot::Histogram(h) => h.clear(),
+        });
     }
 
+    /// Folds every moment's pending block sums into its state (once per
+    /// batch).
     pub fn flush(&mut self) {
-        for l in &mut self.laws {
-            l.flush();
-        }
-        for p in &mut self.pairs {
-            p.energy_ratio.flush();
-            p.omega_after_norm.flush();
-            p.velocity_after_norm.flush();
-        }
+        self.walk(&mut |_, slot| {
+            if let Slot::Moments(m) = slot {
+                m.flush();
+            }
+        });
     }
 
     /// Completes a run's accumulators: the "all" histograms are the sums of
@@ -209,17 +122,19 @@ impl RunAcc {
         }
     }
 
-    /// Merges `o` after `self`; merging in a fixed order gives bit-identical
-    /// results.
-    pub fn merge(&mut self, o: &RunAcc) {
-        for (a, b) in self.laws.iter_mut().zip(&o.laws) {
-            a.merge(b);
-        }
-        for (a, b) in self.pairs.iter_mut().zip(&o.pairs) {
-            a.energy_ratio.merge(&b.energy_ratio);
-            a.omega_after_norm.merge(&b.omega_after_norm);
-            a.velocity_after_norm.merge(&b.velocity_after_norm);
-        }
+    /// Merges `o` after `self`, field by field; merging in a fixed order
+    /// gives bit-identical results. `o` is only read (it is walked mutably
+    /// because [`Self::walk`] hands out mutable fields).
+    pub fn merge(&mut self, o: &mut RunAcc) {
+        let mut theirs = Vec::with_capacity(128);
+        o.walk(&mut |_, slot| theirs.push(slot));
+        let mut theirs = theirs.into_iter();
+        self.walk(&mut |path, mine| match (mine, theirs.next()) {
+            (Slot::Count(a), Some(Slot::Count(b))) => *a += *b,
+            (Slot::Moments(a), Some(Slot::Moments(b))) => a.merge(b),
+            (Slot::Histogram(a), Some(Slot::Histogram(b))) => a.merge(b),
+            _ => panic!("merging accumulators of different shapes at {}", path()),
+        });
     }
 }
 
@@ -234,12 +149,26 @@ impl RunAcc {
     /// Every field with a stable path (`law0.groups.3.energy_ratio.hist`),
     /// in a fixed order: how shard files store and restore accumulators.
     pub fn visit(&mut self, f: &mut dyn FnMut(&str, Slot)) {
-        fn stat(f: &mut dyn FnMut(&str, Slot), path: &str, s: &mut Stat) {
-            f(&format!("{path}.moments"), Slot::Moments(&mut s.moments));
-            f(&format!("{path}.hist"), Slot::Histogram(&mut s.hist));
+        self.walk(&mut |path, slot| f(&path(), slot));
+    }
+
+    /// The one walk over every field, in [`Self::visit`]'s order, that
+    /// clearing, flushing, merging and the shard files are built on. Each
+    /// field comes with its path, made only when asked for.
+    fn walk<'a>(&'a mut self, f: &mut dyn FnMut(&dyn Fn() -> String, Slot<'a>)) {
+        fn stat<'a>(
+            f: &mut dyn FnMut(&dyn Fn() -> String, Slot<'a>),
+            path: &dyn Fn() -> String,
+            s: &'a mut Stat,
+        ) {
+            f(
+                &|| format!("{}.moments", path()),
+                Slot::Moments(&mut s.moments),
+            );
+            f(&|| format!("{}.hist", path()), Slot::Histogram(&mut s.hist));
         }
         for (li, l) in self.laws.iter_mut().enumerate() {
-            let p = format!("law{li}");
+            let law = || format!("law{li}");
             for (name, c) in [
                 ("samples", &mut l.samples),
                 ("impacts", &mut l.impacts),
@@ -250,51 +179,54 @@ impl RunAcc {
                 ("recomputed", &mut l.recomputed),
                 ("penetrating", &mut l.penetrating),
             ] {
-                f(&format!("{p}.{name}"), Slot::Count(c));
+                f(&|| format!("{}.{name}", law()), Slot::Count(c));
             }
             for (m, c) in l.active_sets.iter_mut().enumerate() {
-                f(&format!("{p}.active_sets.{m}"), Slot::Count(c));
+                f(&|| format!("{}.active_sets.{m}", law()), Slot::Count(c));
             }
-            stat(f, &format!("{p}.energy_ratio"), &mut l.energy_ratio);
-            stat(f, &format!("{p}.omega_after_norm"), &mut l.omega_after_norm);
-            stat(
-                f,
-                &format!("{p}.velocity_after_norm"),
-                &mut l.velocity_after_norm,
-            );
+            let headline = [
+                ("energy_ratio", &mut l.energy_ratio),
+                ("omega_after_norm", &mut l.omega_after_norm),
+                ("velocity_after_norm", &mut l.velocity_after_norm),
+            ];
+            for (name, s) in headline {
+                stat(f, &|| format!("{}.{name}", law()), s);
+            }
             for (i, s) in l.impulse.iter_mut().enumerate() {
-                stat(f, &format!("{p}.impulse.{i}"), s);
+                stat(f, &|| format!("{}.impulse.{i}", law()), s);
             }
             for (i, s) in l.rebound.iter_mut().enumerate() {
-                stat(f, &format!("{p}.rebound.{i}"), s);
+                stat(f, &|| format!("{}.rebound.{i}", law()), s);
             }
             for (m, g) in l.groups.iter_mut().enumerate() {
-                let q = format!("{p}.groups.{m}");
-                f(&format!("{q}.samples"), Slot::Count(&mut g.samples));
-                f(&format!("{q}.impacts"), Slot::Count(&mut g.impacts));
-                stat(f, &format!("{q}.energy_ratio"), &mut g.energy_ratio);
-                stat(f, &format!("{q}.omega_after_norm"), &mut g.omega_after_norm);
-                stat(
-                    f,
-                    &format!("{q}.velocity_after_norm"),
-                    &mut g.velocity_after_norm,
+                let group = || format!("{}.groups.{m}", law());
+                f(
+                    &|| format!("{}.samples", group()),
+                    Slot::Count(&mut g.samples),
                 );
+                f(
+                    &|| format!("{}.impacts", group()),
+                    Slot::Count(&mut g.impacts),
+                );
+                let headline = [
+                    ("energy_ratio", &mut g.energy_ratio),
+                    ("omega_after_norm", &mut g.omega_after_norm),
+                    ("velocity_after_norm", &mut g.velocity_after_norm),
+                ];
+                for (name, s) in headline {
+                    stat(f, &|| format!("{}.{name}", group()), s);
+                }
             }
         }
         for (pi, pa) in self.pairs.iter_mut().enumerate() {
-            let p = format!("pair{}", pi + 1);
-            f(
-                &format!("{p}.energy_ratio"),
-                Slot::Moments(&mut pa.energy_ratio),
-            );
-            f(
-                &format!("{p}.omega_after_norm"),
-                Slot::Moments(&mut pa.omega_after_norm),
-            );
-            f(
-                &format!("{p}.velocity_after_norm"),
-                Slot::Moments(&mut pa.velocity_after_norm),
-            );
+            let headline = [
+                ("energy_ratio", &mut pa.energy_ratio),
+                ("omega_after_norm", &mut pa.omega_after_norm),
+                ("velocity_after_norm", &mut pa.velocity_after_norm),
+            ];
+            for (name, m) in headline {
+                f(&|| format!("pair{}.{name}", pi + 1), Slot::Moments(m));
+            }
         }
     }
 }

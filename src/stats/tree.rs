@@ -76,7 +76,7 @@ impl TreeStack {
                 break;
             }
             let (_, mut left) = self.nodes.pop().expect("checked above");
-            left.merge(&acc);
+            left.merge(&mut acc);
             acc = left;
             node = Node {
                 level: node.level + 1,
@@ -138,8 +138,8 @@ fn reduce_node(
         index: i,
     };
     let mut left = reduce_node(child(2 * node.index), batches, map, missing, empty);
-    let right = reduce_node(child(2 * node.index + 1), batches, map, missing, empty);
-    left.merge(&right);
+    let mut right = reduce_node(child(2 * node.index + 1), batches, map, missing, empty);
+    left.merge(&mut right);
     left
 }
 
@@ -157,14 +157,14 @@ impl std::str::FromStr for Shard {
     fn from_str(s: &str) -> Result<Self, String> {
         let (i, n) = s
             .split_once('/')
-            .ok_or_else(|| format!("--shard must be I/N (e.g. 3/8), got {s:?}"))?;
+            .ok_or_else(|| format!("must be I/N (e.g. 3/8), got {s:?}"))?;
         let (index, count): (u64, u64) = match (i.trim().parse(), n.trim().parse()) {
             (Ok(i), Ok(n)) => (i, n),
-            _ => return Err(format!("--shard must be I/N with integers, got {s:?}")),
+            _ => return Err(format!("must be I/N with integers, got {s:?}")),
         };
         if count == 0 || index >= count {
             return Err(format!(
-                "--shard I/N needs 0 <= I < N, got {s:?} (indices start at 0)"
+                "I/N needs 0 <= I < N, got {s:?} (indices start at 0)"
             ));
         }
         Ok(Self { index, count })
