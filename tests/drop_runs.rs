@@ -60,7 +60,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
                 e.flight,
                 e.flight_rotation,
                 e.bounces,
-                impactmc::kernel::KernelVariant::of(&s, impactmc::engine::Keep::NONE).name(),
+                impactmc::kernel::KernelVariant::of(&s, impactmc::config::Keep::NONE).name(),
                 e.constant_spin,
             ),
             (rot, coupled, flight, rotation, bounces, kernel, spin),

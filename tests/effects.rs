@@ -9,7 +9,8 @@ mod support;
 use support::{repo, scratch};
 
 use impactmc::config::{load_scene, Overrides, Scene};
-use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, Keep, RunOptions};
+use impactmc::config::Keep;
+use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, RunOptions};
 use impactmc::kernel::KernelVariant;
 use impactmc::output::summary::Summary;
 use impactmc::physics::Law;

@@ -71,8 +71,9 @@ impl From<StudyError> for Failure {
 }
 
 impl From<OutputError> for Failure {
-    /// A folder that cannot be prepared is bad input (checked before any
-    /// work); one that fails later, a failure.
+    /// Writing a folder after the work is done: a failure. (A folder that
+    /// cannot be prepared before any work is bad input; the subcommands map
+    /// that with [`Failure::bad_input`].)
     fn from(e: OutputError) -> Self {
         Self::failed(chain(&e))
     }

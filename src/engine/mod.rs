@@ -19,8 +19,7 @@ use rayon::prelude::*;
 pub use batch::{kernel_block, sample_block};
 pub use evaluate::{evaluate_samples, evaluate_samples_with, SampleOutcome};
 
-pub use crate::config::Keep;
-use crate::config::Scene;
+use crate::config::{Keep, Scene};
 use crate::engine::batch::{run_block, Ctx, Work};
 use crate::engine::pool::Pool;
 use crate::kernel::{Consts, KernelVariant};
