@@ -8,8 +8,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::config::Keep;
+use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::{run, sample_block, RunOptions};
 use impactmc::lanes::dispatch::BLOCK;
 use impactmc::physics::{solve_impact, Law, Pose, State};

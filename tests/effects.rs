@@ -8,8 +8,8 @@ mod support;
 
 use support::{repo, scratch};
 
-use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::config::Keep;
+use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::{evaluate_samples, evaluate_samples_with, run, RunOptions};
 use impactmc::kernel::KernelVariant;
 use impactmc::output::summary::Summary;
