@@ -22,14 +22,12 @@ fn readers_available() -> bool {
 
 #[test]
 fn python_readers_agree_with_the_run() {
-    if !readers_available() {
-        assert!(
-            std::env::var("IMPACTMC_REQUIRE_READERS").is_err(),
-            "pyarrow, duckdb and polars are required (pip install -r .ci/requirements-readers.txt)"
-        );
-        eprintln!(
-            "SKIPPED: Python readers not installed (pip install -r .ci/requirements-readers.txt)"
-        );
+    if !support::available_or_skip(
+        readers_available(),
+        "IMPACTMC_REQUIRE_READERS",
+        "pyarrow, duckdb and polars",
+        "pip install -r .ci/requirements-readers.txt",
+    ) {
         return;
     }
     let dir = scratch("readers");

@@ -98,12 +98,12 @@ fn submit(work: &Path, out: &Path, fail: Option<u32>) -> (String, String) {
 
 #[test]
 fn sharded_study_on_a_real_slurm_cluster() {
-    if !slurm_reachable() {
-        assert!(
-            std::env::var_os("IMPACTMC_REQUIRE_SLURM").is_none(),
-            "IMPACTMC_REQUIRE_SLURM is set but no Slurm is reachable (sinfo failed); start one with deploy/slurm/local-cluster.sh start"
-        );
-        eprintln!("skipped: no Slurm reachable (sinfo failed); deploy/slurm/local-cluster.sh start makes one");
+    if !support::available_or_skip(
+        slurm_reachable(),
+        "IMPACTMC_REQUIRE_SLURM",
+        "a Slurm cluster (sinfo failed)",
+        "bash deploy/slurm/local-cluster.sh start makes one",
+    ) {
         return;
     }
     let d = tmpdir("slurm-cluster");

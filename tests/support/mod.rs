@@ -43,6 +43,21 @@ pub fn shipped_scene(name: &str, precision: &str) -> impactmc::config::Scene {
     .expect("shipped scene")
 }
 
+/// Whether a test that needs something outside Rust (`what`, e.g. a Slurm
+/// cluster) can run: `true` when `available`; otherwise it is skipped with a
+/// message saying how to get it (`false`), unless the environment variable
+/// `required` is set (as `.ci/run` sets it), when the test fails.
+pub fn available_or_skip(available: bool, required: &str, what: &str, how: &str) -> bool {
+    if !available {
+        assert!(
+            std::env::var_os(required).is_none(),
+            "{required} is set but {what} is not available ({how})"
+        );
+        eprintln!("skipped: {what} is not available ({how})");
+    }
+    available
+}
+
 /// `shared/` beside the repository (CI clones the repo next to it).
 /// `IMPACTMC_SHARED` overrides the location.
 pub fn shared_dir() -> PathBuf {
