@@ -2,8 +2,8 @@
 //! written as one run folder (summary, histograms, manifest; staged and
 //! renamed together at the end).
 //!
-//! This is the one entry point that chooses the engine for a scene
-//! ([`prepare`], then [`run`]); the command line prints what it returns.
+//! Contact scenes and drop scenes alike ([`prepare`], then [`run`]); the
+//! command line prints what it returns.
 
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -13,16 +13,19 @@ use serde_json::json;
 use crate::config::sweep::{plan, Axis};
 use crate::config::{Keep, RawScene};
 use crate::config::{Overrides, Scene, SceneError};
-use crate::drop::DropRun;
 use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
 use crate::kernel::KernelVariant;
 use crate::output::manifest::{Manifest, MergeInfo, ShardRef, Timing};
-use crate::output::samples::{sample_columns, SampleRows};
+use crate::output::samples::SampleRows;
 use crate::output::samples::{SamplesWriter, Selection};
 use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
 use crate::output::summary::Summary;
-use crate::output::{histograms_frame, summary_frame, write_parquet, OutputError, Staging};
+use crate::output::{
+    drop_frames, histograms_frame, summary_frame, write_parquet, DropAccs, OutputError, PointValues,
+    Staging,
+};
 use crate::stats::tree::Shard;
+use crate::stats::accumulators::Shape;
 use crate::stats::RunResult;
 
 /// One grid point's run.
@@ -95,9 +98,8 @@ pub fn run_study(
     // Every default explicit in the manifest.
     let output = raw.output.get_or_insert_with(Default::default).clone();
     let mut writer = if output.per_sample {
-        let (floats, ints) = sample_columns(&points[0].scene);
-        let selection =
-            Selection::new(floats, ints, output.columns.as_deref()).map_err(|m| SceneError {
+        let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
+            .map_err(|m| SceneError {
                 file: file.clone(),
                 line: crate::config::line_of(&text, &["output", "columns"]),
                 field: "output.columns".into(),
@@ -171,10 +173,9 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
     let mut nodes: Vec<Vec<_>> = points.iter().map(|_| Vec::new()).collect();
     let mut wall = vec![0.0; points.len()];
     let mut cpu: Vec<Option<f64>> = vec![Some(0.0); points.len()];
+    let shapes: Vec<Shape> = points.iter().map(|p| Shape::of(&p.scene)).collect();
     for s in &checked.shards {
-        let laws = points[0].scene.laws().len();
-        let contacts = points[0].scene.touching().len();
-        let per_point = read_nodes(&s.dir, points.len(), laws, contacts)?;
+        let per_point = read_nodes(&s.dir, &shapes)?;
         for (k, n) in per_point.into_iter().enumerate() {
             nodes[k].extend(n);
             wall[k] += s.info.wall_seconds.get(k).copied().unwrap_or(0.0);
@@ -190,8 +191,7 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
         let result = merge_point(
             n,
             first.info.batches,
-            p.scene.laws().len(),
-            p.scene.touching().len(),
+            Shape::of(&p.scene),
             wall[k],
             cpu[k],
             threads,
@@ -359,12 +359,29 @@ impl Study {
             &mut df,
             crate::output::table_metadata(first),
         )?;
+        let mut files = vec!["summary.parquet".to_string(), "histograms.parquet".into()];
+        if self.points[0].scene.drop_box().is_some() {
+            let drops: Vec<(PointValues, DropAccs)> = self
+                .points
+                .iter()
+                .map(|p| {
+                    let laws = p.scene.laws().iter().map(|l| l.name());
+                    (p.values.clone(), laws.zip(&p.result.acc.drops).collect())
+                })
+                .collect();
+            let frames = drop_frames(&drops, &first.contacts).map_err(err("bounces.parquet"))?;
+            for (name, mut df) in frames {
+                write_parquet(
+                    &mut staging,
+                    name,
+                    &mut df,
+                    crate::output::table_metadata(first),
+                )?;
+                files.push(name.into());
+            }
+        }
         staging.write_json("summary.json", &self.summary_json())?;
-        let mut files = vec![
-            "summary.parquet".to_string(),
-            "histograms.parquet".into(),
-            "summary.json".into(),
-        ];
+        files.push("summary.json".into());
         let mut shard_ref = None;
         if let Some(shard) = self.shard {
             files.extend(self.write_shard_state(&mut staging, shard)?);
@@ -402,8 +419,8 @@ pub struct Prepared {
     pub name: String,
     /// The effect set (`effects: …`).
     pub effects_line: String,
-    /// The kernel instantiation (`kernel: …`); none for a drop scene.
-    pub kernel_line: Option<String>,
+    /// The kernel instantiation (`kernel: …`).
+    pub kernel_line: String,
 }
 
 /// Validates a scene file (every sweep point) with its overrides and the
@@ -414,11 +431,12 @@ pub fn prepare(
     opts: &RunOptions,
 ) -> Result<Prepared, StudyError> {
     let (_, points) = plan(path, overrides)?;
-    check_drop_request(path, &points, opts)?;
     let scene = &points[0].scene;
     let drop = scene.drop_box().is_some();
     let keep = opts.keep;
-    let kernel_line = (!drop).then(|| {
+    let kernel_line = if drop {
+        "kernel: drop (flight, time of impact and impacts by the f64 reference, per sample)".into()
+    } else {
         let variant = KernelVariant::of(scene, keep);
         let kept = if keep == Keep::NONE {
             String::new()
@@ -426,7 +444,7 @@ pub fn prepare(
             format!(" (kept although not needed: {keep:?})")
         };
         format!("kernel: {}{kept}", variant.name())
-    });
+    };
     Ok(Prepared {
         name: scene.name().to_string(),
         effects_line: scene.effects().line(),
@@ -434,87 +452,12 @@ pub fn prepare(
     })
 }
 
-/// A drop study: the drop engine's run of a scene with `placement.drop`.
-pub struct DropStudy {
-    pub scene: Scene,
-    pub run: DropRun,
-    started: SystemTime,
-    dir: PathBuf,
-}
-
-/// What [`run`] returns: the study of a contact scene or of a drop scene.
-pub enum Outcome {
-    Contacts(Box<Study>),
-    Drops(Box<DropStudy>),
-}
-
-impl Outcome {
-    /// The terminal summary.
-    pub fn text(&self) -> String {
-        match self {
-            Outcome::Contacts(s) => s.text(),
-            Outcome::Drops(d) => d.run.text(&d.scene),
-        }
-    }
-
-    /// The JSON summary (`--format json`, `summary.json`).
-    pub fn summary_json(&self) -> serde_json::Value {
-        match self {
-            Outcome::Contacts(s) => s.summary_json(),
-            Outcome::Drops(d) => d.run.summary_json(&d.scene),
-        }
-    }
-
-    /// Writes the run folder, staged and renamed together.
-    pub fn write(self) -> Result<Vec<PathBuf>, OutputError> {
-        match self {
-            Outcome::Contacts(s) => s.write(),
-            Outcome::Drops(d) => crate::drop::write_outputs(&d.run, &d.scene, &d.dir, d.started),
-        }
-    }
-}
-
-/// Runs a scene file with the engine its scene calls for: the contact
-/// engine ([`run_study`]) or, for `placement.drop`, the drop engine.
+/// Runs a scene file: every grid point through the engine ([`run_study`]).
 pub fn run(
     path: &Path,
     overrides: &Overrides,
     opts: &RunOptions,
     dir: &Path,
-) -> Result<Outcome, StudyError> {
-    let (_, points) = plan(path, overrides)?;
-    if points[0].scene.drop_box().is_none() {
-        return Ok(Outcome::Contacts(Box::new(run_study(
-            path, overrides, opts, dir,
-        )?)));
-    }
-    check_drop_request(path, &points, opts)?;
-    let scene = points.into_iter().next().expect("one point").scene;
-    let started = SystemTime::now();
-    let run = crate::drop::run_drop(&scene, opts.threads).map_err(RunError::Pool)?;
-    Ok(Outcome::Drops(Box::new(DropStudy {
-        scene,
-        run,
-        started,
-        dir: dir.to_path_buf(),
-    })))
-}
-
-/// Refuses what the drop engine cannot do yet: sweeps, shards and
-/// per-sample rows of a drop scene.
-fn check_drop_request(
-    path: &Path,
-    points: &[crate::config::sweep::Point],
-    opts: &RunOptions,
-) -> Result<(), StudyError> {
-    let scene = &points[0].scene;
-    if scene.drop_box().is_some()
-        && (points.len() > 1 || opts.shard.is_some() || scene.effects().per_sample)
-    {
-        return Err(StudyError::Unsupported(format!(
-            "{}: drop scenes (placement.drop) do not support sweeps, --shard or per-sample rows yet",
-            path.display()
-        )));
-    }
-    Ok(())
+) -> Result<Study, StudyError> {
+    run_study(path, overrides, opts, dir)
 }

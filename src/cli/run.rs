@@ -6,7 +6,7 @@ use impactmc::config::{Keep, Overrides, Precision};
 use impactmc::engine::RunOptions;
 use impactmc::output::prepare_dir;
 use impactmc::stats::tree::Shard;
-use impactmc::study::{self, Outcome};
+use impactmc::study;
 
 use super::{report, Failure, Format};
 
@@ -105,9 +105,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     // what will run goes to stderr (stdout may be JSON).
     let prepared = study::prepare(&path, &overrides, &opts)?;
     eprintln!("{}", prepared.effects_line);
-    if let Some(line) = &prepared.kernel_line {
-        eprintln!("{line}");
-    }
+    eprintln!("{}", prepared.kernel_line);
     let name = &prepared.name;
     let dir = args.out.clone().unwrap_or_else(|| match args.shard {
         Some(s) => {
@@ -116,9 +114,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         None => PathBuf::from("results").join(name),
     });
     prepare_dir(&dir, args.force).map_err(Failure::bad_input)?;
-    let outcome = study::run(&path, &overrides, &opts, &dir)?;
-    let mut text = outcome.text();
-    if let (Some(s), Outcome::Contacts(study)) = (args.shard, &outcome) {
+    let study = study::run(&path, &overrides, &opts, &dir)?;
+    let mut text = study.text();
+    if let Some(s) = args.shard {
         let r = &study.points[0].result;
         let range = s.batches(r.batches);
         text = format!(
@@ -126,9 +124,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             s.index, s.count, range.start, range.end, r.batches
         );
     }
-    let json = outcome.summary_json();
+    let json = study.summary_json();
     // Outputs first, so a closed stdout never costs the results.
-    outcome.write()?;
+    study.write()?;
     report(&text, &json, &dir, args.format);
     Ok(())
 }

@@ -196,6 +196,15 @@ impl Scene {
     pub fn touching(&self) -> &[usize] {
         &self.touching
     }
+    /// The planes whose impulses a run records, in scene order: the
+    /// touching planes of a contact scene, every plane of a drop scene.
+    pub fn recorded_planes(&self) -> Vec<usize> {
+        if self.drop.is_some() {
+            (0..self.planes.len()).collect()
+        } else {
+            self.touching.clone()
+        }
+    }
     /// The touching planes themselves, in scene order.
     pub fn touching_planes(&self) -> Vec<Plane> {
         self.touching

@@ -137,6 +137,9 @@ fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
     Ok(planes)
 }
 
+/// Most planes of a drop scene (2^planes sets of planes hit per bounce).
+pub const MAX_DROP_PLANES: usize = 6;
+
 /// `placement.drop`: a box of start positions from which the body cannot
 /// touch any plane, whatever its orientation.
 fn drop_box(
@@ -153,6 +156,15 @@ fn drop_box(
                     format!(
                         "give either touching or drop, not both (touching = {:?})",
                         raw.placement.touching
+                    ),
+                ));
+            }
+            if planes.len() > MAX_DROP_PLANES {
+                return Err(bad(
+                    &["planes"],
+                    format!(
+                        "a drop scene has at most {MAX_DROP_PLANES} planes (statistics are kept per set of planes hit), got {}",
+                        planes.len()
                     ),
                 ));
             }
@@ -253,7 +265,14 @@ impl Scene {
         }
         let laws = laws(&raw)?;
         let precision: Precision = raw.precision.parse().map_err(|m| bad(&["precision"], m))?;
-        let batch_size = raw.batch_size.unwrap_or(65536);
+        // A drop sample costs hundreds of contact samples: smaller batches
+        // keep every core busy on a drop scene's default sample count.
+        let default_batch = if raw.placement.drop.is_some() {
+            4096
+        } else {
+            65536
+        };
+        let batch_size = raw.batch_size.unwrap_or(default_batch);
         if !(batch_size.is_power_of_two() && (256..=1 << 22).contains(&batch_size)) {
             return Err(bad(
                 &["batch_size"],

@@ -28,7 +28,7 @@ use crate::lanes::Real;
 use crate::output::manifest::process_cpu_seconds;
 use crate::output::samples::{sample_columns, SampleRows};
 use crate::sampler::{Sampler, ALL_ROWS};
-use crate::stats::accumulators::RunAcc;
+use crate::stats::accumulators::{RunAcc, Shape};
 use crate::stats::block::StatsPlan;
 use crate::stats::tree::{aligned_nodes, reduce_tree, Node, Shard, TreeStack};
 use crate::stats::RunResult;
@@ -89,7 +89,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     plan: StatsPlan,
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
-    mut sink: Option<&mut SampleSink>,
+    sink: Option<&mut SampleSink>,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
     let consts = Consts::<T, N>::new(scene);
     // Orientations feed the rotational terms and the per-sample rows only,
@@ -137,8 +137,52 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         bar.inc(hi - lo);
         (part, rows)
     };
+    run_tree(batch_range, &run_batch, &accs, sink)
+}
+
+/// A drop scene's batches: per sample, the f64 reference flight and
+/// impacts of [`crate::drop`], through the same tree as contact batches.
+fn run_drops(
+    scene: &Scene,
+    keep: Keep,
+    batch_range: std::ops::Range<u64>,
+    bar: &indicatif::ProgressBar,
+    sink: Option<&mut SampleSink>,
+) -> Result<Vec<(Node, RunAcc)>, SinkError> {
+    let ctx = crate::drop::DropCtx::new(scene, keep);
+    let shape = Shape::of(scene);
+    let batch = scene.batch_size();
+    let total = scene.samples();
+    let (nf, ni) = {
+        let (f, i) = sample_columns(scene);
+        (f.len(), i.len())
+    };
+    let want_rows = sink.is_some();
+    let accs = Pool::<RunAcc>::new();
+    let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
+        let mut part = accs.take(|| RunAcc::shaped(shape));
+        let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
+        let lo = b * batch;
+        let hi = (lo + batch).min(total);
+        ctx.run(lo, hi - lo, &mut part, rows.as_mut());
+        part.flush();
+        bar.inc(hi - lo);
+        (part, rows)
+    };
+    run_tree(batch_range, &run_batch, &accs, sink)
+}
+
+/// Runs the batches of `batch_range` with `run_batch` and merges their
+/// accumulators along the fixed merge tree: the maximal tree nodes inside
+/// the range, in batch order. Per-sample rows go to `sink` in batch order.
+fn run_tree(
+    batch_range: std::ops::Range<u64>,
+    run_batch: &(dyn Fn(u64) -> (RunAcc, Option<SampleRows>) + Sync),
+    accs: &Pool<RunAcc>,
+    mut sink: Option<&mut SampleSink>,
+) -> Result<Vec<(Node, RunAcc)>, SinkError> {
     let mut tree = TreeStack::default();
-    if !want_rows {
+    if sink.is_none() {
         // Summary only: each maximal tree node is run as a parallel
         // recursion that merges its two halves as soon as both are done,
         // on whichever thread finished last. Merges overlap with other
@@ -172,7 +216,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         let nodes = aligned_nodes(batch_range);
         let merged: Vec<RunAcc> = nodes
             .par_iter()
-            .map(|&node| subtree(node, &leaf, &accs))
+            .map(|&node| subtree(node, &leaf, accs))
             .collect();
         for (node, acc) in nodes.into_iter().zip(merged) {
             tree.push_node(node, acc);
@@ -251,15 +295,20 @@ pub fn run_with_samples(
     let variant = KernelVariant::of(scene, opts.keep);
     let plan = StatsPlan::of(scene, opts.keep);
     let nodes = pool
-        .install(|| with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink)))
+        .install(|| {
+            if scene.drop_box().is_some() {
+                run_drops(scene, opts.keep, r, &bar, sink)
+            } else {
+                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink))
+            }
+        })
         .map_err(RunError::Sink)?;
-    let (laws, contacts) = (scene.laws().len(), scene.touching().len());
     let kept = if opts.shard.is_some() {
         nodes.clone()
     } else {
         Vec::new()
     };
-    let (mut acc, _) = reduce_tree(nodes, batches, laws, contacts);
+    let (mut acc, _) = reduce_tree(nodes, batches, Shape::of(scene));
     acc.finish();
     let wall_seconds = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();

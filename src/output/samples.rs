@@ -1,6 +1,6 @@
-//! `samples.parquet`: one row per sample, streamed in row groups of
-//! [`ROW_GROUP`] rows (zstd) while the run goes on, so memory stays bounded
-//! whatever the sample count.
+//! `samples.parquet`: one row per sample (a drop scene: one row per sample,
+//! law and impact), streamed in row groups of [`ROW_GROUP`] rows (zstd)
+//! while the run goes on, so memory stays bounded whatever the sample count.
 
 use std::fs::File;
 
@@ -8,8 +8,9 @@ use glam::{DMat3, DQuat};
 use polars::prelude::*;
 
 use crate::config::Scene;
-use crate::kernel::{Geometry, LawOut, ACTIVE_SHIFT};
+use crate::kernel::{Geometry, LawOut, ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, UNSOLVED};
 use crate::lanes::Real;
+use crate::physics::{ImpactOutcome, Motion};
 use crate::sampler::Inputs;
 
 /// Rows per Parquet row group.
@@ -23,6 +24,8 @@ pub struct Selection {
     ints: Vec<String>,
     keep_float: Vec<bool>,
     keep_int: Vec<bool>,
+    /// A drop scene's law names, for its `law` column.
+    laws: Vec<String>,
 }
 
 impl Selection {
@@ -58,7 +61,19 @@ impl Selection {
             keep_int: keep(&ints),
             floats,
             ints,
+            laws: Vec::new(),
         })
+    }
+
+    /// The per-sample selection of a scene: [`sample_columns`], and a drop
+    /// scene's `law` column.
+    pub fn of_scene(scene: &Scene, wanted: Option<&[String]>) -> Result<Self, String> {
+        let (floats, ints) = sample_columns(scene);
+        let mut s = Self::new(floats, ints, wanted)?;
+        if scene.drop_box().is_some() {
+            s.laws = scene.laws().iter().map(|l| l.name()).collect();
+        }
+        Ok(s)
     }
 }
 
@@ -112,6 +127,11 @@ impl SamplesWriter {
             cols.push(Column::new("point".into(), vec![p; n]));
         }
         cols.push(Column::new("sample".into(), b.index));
+        if !self.selection.laws.is_empty() {
+            let names = &self.selection.laws;
+            let law: Vec<&str> = b.law.iter().map(|&l| names[l as usize].as_str()).collect();
+            cols.push(Column::new("law".into(), law));
+        }
         for ((name, keep), v) in self
             .selection
             .floats
@@ -172,6 +192,9 @@ impl SamplesWriter {
 #[derive(Debug, Clone, Default)]
 pub struct SampleRows {
     pub index: Vec<u64>,
+    /// A drop scene's law per row (index into the scene's laws); empty for
+    /// a contact scene.
+    pub law: Vec<u32>,
     pub floats: Vec<Vec<f64>>,
     pub ints: Vec<Vec<u32>>,
 }
@@ -180,6 +203,7 @@ impl SampleRows {
     pub fn new(floats: usize, ints: usize) -> Self {
         Self {
             index: Vec::new(),
+            law: Vec::new(),
             floats: vec![Vec::new(); floats],
             ints: vec![Vec::new(); ints],
         }
@@ -196,6 +220,7 @@ impl SampleRows {
     /// Appends `other`'s rows.
     pub fn append(&mut self, other: &SampleRows) {
         self.index.extend_from_slice(&other.index);
+        self.law.extend_from_slice(&other.law);
         for (a, b) in self.floats.iter_mut().zip(&other.floats) {
             a.extend_from_slice(b);
         }
@@ -210,6 +235,9 @@ impl SampleRows {
 /// active-set bitmask over the touching planes in scene order, `flags_LAW`
 /// the kernel status bits (see README).
 pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+    if scene.drop_box().is_some() {
+        return drop_columns(scene);
+    }
     let planes: Vec<&str> = scene
         .touching()
         .iter()
@@ -306,6 +334,119 @@ pub fn push_rows<T: Real, const N: usize>(
                 .expect("column count")
                 .push((st >> ACTIVE_SHIFT) & ((1 << N) - 1));
             ints.next().expect("column count").push(st);
+        }
+    }
+}
+
+/// A drop scene's per-impact columns after `sample` (u64) and `law` (str):
+/// the f64 columns, then the u32 columns. At the moment of impact: `time`
+/// since release and `interval` since the previous impact (s), the centre
+/// (m), the orientation (unit quaternion body → world, w ≥ 0), v (world,
+/// m/s) and ω (body, rad/s) before and after, the energies (J), and per
+/// plane its distance (m), normal velocity before and after (m/s) and
+/// impulse (N·s). `bounce` counts impacts from 1, `planes` is the bitmask of
+/// the planes that took an impulse (scene order), `flags` the kernel's
+/// status bits for energy_gain, degenerate, jammed and unsolved.
+pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+    let mut f: Vec<String> = [
+        "time",
+        "interval",
+        "centre_x",
+        "centre_y",
+        "centre_z",
+        "q_w",
+        "q_x",
+        "q_y",
+        "q_z",
+        "v_x",
+        "v_y",
+        "v_z",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "energy_before",
+        "energy_after",
+        "energy_ratio",
+        "v_after_x",
+        "v_after_y",
+        "v_after_z",
+        "omega_after_x",
+        "omega_after_y",
+        "omega_after_z",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for p in scene.planes() {
+        for c in ["distance", "vn_before", "vn_after", "impulse"] {
+            f.push(format!("{c}_{}", p.name));
+        }
+    }
+    let ints = ["bounce", "planes", "flags"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    (f, ints)
+}
+
+/// One impact of a drop sample, as [`SampleRows::push_drop`] writes it.
+pub struct DropRow<'a> {
+    pub sample: u64,
+    pub law: u32,
+    pub bounce: u32,
+    pub planes: u32,
+    pub time: f64,
+    pub interval: f64,
+    /// At the moment of impact, before it.
+    pub motion: &'a Motion,
+    pub outcome: &'a ImpactOutcome,
+    pub distances: &'a [f64],
+}
+
+impl SampleRows {
+    /// Appends one impact in the order of [`drop_columns`].
+    pub fn push_drop(&mut self, r: &DropRow) {
+        self.index.push(r.sample);
+        self.law.push(r.law);
+        let m = r.motion;
+        let o = r.outcome;
+        let q = DQuat::from_mat3(&m.rotation);
+        let q = if q.w < 0.0 { -q } else { q };
+        let mut f = self.floats.iter_mut();
+        let mut put = |v: f64| f.next().expect("column count").push(v);
+        for v in [r.time, r.interval] {
+            put(v);
+        }
+        for v in m.centre.to_array() {
+            put(v);
+        }
+        for v in [q.w, q.x, q.y, q.z] {
+            put(v);
+        }
+        for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
+            put(v);
+        }
+        for v in [o.energy_before, o.energy_after, o.energy_after / o.energy_before] {
+            put(v);
+        }
+        for v in o.after.velocity.to_array().into_iter().chain(o.after.omega.to_array()) {
+            put(v);
+        }
+        for (c, &d) in o.contacts.iter().zip(r.distances) {
+            for v in [d, c.normal_velocity_before, c.normal_velocity_after, c.impulse] {
+                put(v);
+            }
+        }
+        let flags = [
+            (o.flags.energy_gain, ENERGY_GAIN),
+            (o.flags.degenerate, DEGENERATE),
+            (o.flags.jammed, JAMMED),
+            (o.flags.unsolved, UNSOLVED),
+        ]
+        .iter()
+        .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
+        for (col, v) in self.ints.iter_mut().zip([r.bounce, r.planes, flags]) {
+            col.push(v);
         }
     }
 }

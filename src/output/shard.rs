@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::stats::accumulators::{RunAcc, Slot};
+use crate::stats::accumulators::{RunAcc, Shape, Slot};
 use crate::stats::tree::{reduce_tree, Node, Shard};
 use crate::stats::Moments;
 use crate::stats::RunResult;
@@ -312,13 +312,9 @@ fn read_frame(path: &Path) -> Result<DataFrame, MergeError> {
 type NodeMap<T> = HashMap<NodeKey, HashMap<String, T>>;
 
 /// Reads a shard's nodes: per grid point, each node's accumulators, built
-/// for `laws` laws and `contacts` touching planes.
-pub fn read_nodes(
-    dir: &Path,
-    points: usize,
-    laws: usize,
-    contacts: usize,
-) -> Result<Vec<Vec<(Node, RunAcc)>>, MergeError> {
+/// in that point's shape.
+pub fn read_nodes(dir: &Path, shapes: &[Shape]) -> Result<Vec<Vec<(Node, RunAcc)>>, MergeError> {
+    let points = shapes.len();
     let bad = |file: &str, message: String| MergeError::State {
         path: dir.join(file).display().to_string(),
         message,
@@ -433,7 +429,7 @@ pub fn read_nodes(
                 format!("point {p} out of range (the scene has {points})"),
             ));
         }
-        let mut acc = RunAcc::new(laws, contacts);
+        let mut acc = RunAcc::shaped(shapes[p as usize]);
         let mut c = counts.remove(&key).unwrap_or_default();
         let mut m = moments.remove(&key).unwrap_or_default();
         let mut h = hists.remove(&key).unwrap_or_default();
@@ -481,13 +477,12 @@ pub fn read_nodes(
 pub fn merge_point(
     nodes: Vec<(Node, RunAcc)>,
     batches: u64,
-    laws: usize,
-    contacts: usize,
+    shape: Shape,
     wall_seconds: f64,
     cpu_seconds: Option<f64>,
     threads: usize,
 ) -> RunResult {
-    let (mut acc, missing) = reduce_tree(nodes, batches, laws, contacts);
+    let (mut acc, missing) = reduce_tree(nodes, batches, shape);
     acc.finish();
     RunResult {
         acc,

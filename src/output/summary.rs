@@ -6,6 +6,7 @@ use serde_json::Map;
 
 use crate::config::Scene;
 use crate::stats::accumulators::LawAcc;
+use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
 use crate::stats::RunResult;
 use crate::stats::{Moments, Stat};
 
@@ -98,6 +99,108 @@ pub struct Summary {
     /// `LAW-FIRST`: paired differences against the first law, same samples.
     #[serde(default, skip_serializing_if = "Map::is_empty")]
     pub paired: Map<String, serde_json::Value>,
+    /// A drop scene's bounces per law ([`drop_summary`]); `laws` then
+    /// describes each sample's first impact.
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub drops: Map<String, serde_json::Value>,
+}
+
+/// The name of a sequence of sets of planes hit: `wall_x > floor+wall_y`,
+/// `(none)` for no impact.
+pub fn sequence_name(masks: &[usize], names: &[String]) -> String {
+    if masks.is_empty() {
+        return "(none)".into();
+    }
+    masks
+        .iter()
+        .map(|&m| active_set_name(m, names))
+        .collect::<Vec<_>>()
+        .join(" > ")
+}
+
+/// One law's drop statistics: per bounce (samples reaching it, fractions
+/// of the planes hit, energy ratio, interval, speed before, simultaneity),
+/// the number of impacts, how the samples ended, the final axis up and the
+/// sequences of planes hit over the first impacts (most frequent first).
+pub fn drop_summary(a: &DropAcc, names: &[String]) -> serde_json::Value {
+    use serde_json::json;
+    let n = a.samples.max(1) as f64;
+    let bounces: Vec<serde_json::Value> = a
+        .bounces
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let mut sets = Map::new();
+            for (mask, &c) in b.sets.iter().enumerate() {
+                if c > 0 {
+                    sets.insert(
+                        active_set_name(mask, names),
+                        json!(c as f64 / b.reached.max(1) as f64),
+                    );
+                }
+            }
+            let mut within = Map::new();
+            for (tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
+                within.insert(
+                    format!("{tol:e}"),
+                    json!(c as f64 / b.reached.max(1) as f64),
+                );
+            }
+            json!({
+                "bounce": k + 1,
+                "reached": b.reached,
+                "fraction_of_samples": b.reached as f64 / n,
+                "planes_hit": sets,
+                "energy_ratio": json(&StatSummary::from_moments(&b.energy_ratio)),
+                "interval_seconds": json(&StatSummary::from_moments(&b.interval)),
+                "speed_before": json(&StatSummary::from_moments(&b.speed_before)),
+                "simultaneous_within_tolerance": within,
+                "energy_gain": b.energy_gain,
+                "degenerate": b.degenerate,
+            })
+        })
+        .collect();
+    let mut up = Map::new();
+    for (name, &c) in ["a", "b", "c"].iter().zip(&a.final_axis_up) {
+        up.insert((*name).into(), json!(c as f64 / n));
+    }
+    let mut cells: Vec<(usize, u64)> = a
+        .sequences
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, c)| c > 0)
+        .collect();
+    cells.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+    let sequences: Vec<serde_json::Value> = cells
+        .into_iter()
+        .map(|(cell, c)| {
+            json!({
+                "sequence": sequence_name(&a.sequence_masks(cell), names),
+                "count": c,
+                "fraction": c as f64 / n,
+            })
+        })
+        .collect();
+    let mut out = Map::new();
+    out.insert("samples".into(), json!(a.samples));
+    out.insert(
+        "impacts_per_sample".into(),
+        json!(a
+            .impacts
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| (k.to_string(), json!(c as f64 / n)))
+            .collect::<Map<_, _>>()),
+    );
+    for (e, &c) in Ending::ALL.iter().zip(&a.endings) {
+        out.insert(e.name().into(), json!(c as f64 / n));
+    }
+    out.insert("final_axis_up".into(), json!(up));
+    out.insert("sequence_impacts".into(), json!(a.sequence_impacts()));
+    out.insert("sequences".into(), json!(sequences));
+    out.insert("bounces".into(), json!(bounces));
+    serde_json::Value::Object(out)
 }
 
 /// `+`-joined names of the planes in an active-set mask, in scene order.
@@ -220,7 +323,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
 impl Summary {
     pub fn new(scene: &Scene, result: &RunResult) -> Self {
         let contacts: Vec<String> = scene
-            .touching()
+            .recorded_planes()
             .iter()
             .map(|&i| scene.planes()[i].name.clone())
             .collect();
@@ -242,14 +345,24 @@ impl Summary {
                 serde_json::Value::Object(m),
             );
         }
+        let mut drops = Map::new();
+        for (law, acc) in scene.laws().iter().zip(&result.acc.drops) {
+            drops.insert(law.name(), drop_summary(acc, &contacts));
+        }
         // The samples the accumulators hold: the scene's count, except for
         // a shard's share or a partial merge.
         let samples = result.acc.laws.first().map_or(0, |l| l.samples);
+        // Drop scenes run the f64 reference per sample.
+        let precision = if drops.is_empty() {
+            scene.precision().name()
+        } else {
+            "f64"
+        };
         Summary {
             scene: scene.name().to_string(),
             samples,
             seed: scene.seed(),
-            precision: scene.precision().name().to_string(),
+            precision: precision.to_string(),
             threads: result.threads,
             throughput: Throughput {
                 samples_per_second: samples as f64 / result.wall_seconds,
@@ -259,6 +372,7 @@ impl Summary {
             contacts,
             laws,
             paired,
+            drops,
         }
     }
 
@@ -283,7 +397,15 @@ impl Summary {
             self.throughput.wall_seconds,
             self.throughput.samples_per_second
         );
-        let _ = writeln!(s, "contacts: {}", self.contacts.join(", "));
+        if self.drops.is_empty() {
+            let _ = writeln!(s, "contacts: {}", self.contacts.join(", "));
+        } else {
+            let _ = writeln!(
+                s,
+                "drop onto {}; the tables below are each sample's first impact, then its bounces",
+                self.contacts.join(", ")
+            );
+        }
         for law in self.laws.keys() {
             let Some(all) = self.all_group(law) else {
                 continue;
@@ -337,6 +459,9 @@ impl Summary {
                 })
                 .collect();
             let _ = writeln!(s, "  active sets: {}", sets.join("  "));
+            if let Some(d) = self.drops.get(law) {
+                drop_text(&mut s, d);
+            }
         }
         for (pair, v) in &self.paired {
             if let Some(er) = v
@@ -352,4 +477,66 @@ impl Summary {
         }
         s
     }
+}
+
+/// The bounce table of one law's [`drop_summary`].
+fn drop_text(s: &mut String, d: &serde_json::Value) {
+    use std::fmt::Write;
+    let f = |k: &str| d.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let up = |k: &str| d["final_axis_up"].get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let _ = writeln!(
+        s,
+        "  ended: flew away {:.4}, came to rest {:.4}, bounce limit {:.4}, unsolved {:.2e}, stalled {:.2e}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
+        f("flew_away"), f("came_to_rest"), f("bounce_limit"), f("unsolved"), f("stalled"),
+        up("a"), up("b"), up("c")
+    );
+    let _ = writeln!(
+        s,
+        "  {:>6} {:>9} {:>21} {:>13} {:>12}  most frequent planes",
+        "bounce", "reached", "T+/T- mean ± ci95", "interval (s)", "speed (m/s)"
+    );
+    for b in d["bounces"].as_array().into_iter().flatten() {
+        let reached = b["reached"].as_u64().unwrap_or(0);
+        if reached == 0 {
+            continue;
+        }
+        let mean = |k: &str| b[k]["mean"].as_f64().unwrap_or(f64::NAN);
+        let best = b["planes_hit"]
+            .as_object()
+            .and_then(|m| {
+                m.iter()
+                    .max_by(|x, y| x.1.as_f64().partial_cmp(&y.1.as_f64()).expect("fractions"))
+            })
+            .map(|(k, v)| format!("{k} ({:.3})", v.as_f64().unwrap_or(f64::NAN)))
+            .unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "  {:>6} {:>9} {:>12.5} ± {:.1e} {:>13.4} {:>12.4}  {best}",
+            b["bounce"].as_u64().unwrap_or(0),
+            reached,
+            mean("energy_ratio"),
+            b["energy_ratio"]["ci95"].as_f64().unwrap_or(f64::NAN),
+            mean("interval_seconds"),
+            mean("speed_before"),
+        );
+    }
+    let seqs = d["sequences"].as_array().map(Vec::as_slice).unwrap_or(&[]);
+    let top: Vec<String> = seqs
+        .iter()
+        .take(5)
+        .map(|q| {
+            format!(
+                "{} {:.4}",
+                q["sequence"].as_str().unwrap_or("?"),
+                q["fraction"].as_f64().unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  sequences over the first {} impacts (of {}): {}",
+        d["sequence_impacts"],
+        seqs.len(),
+        top.join(";  ")
+    );
 }

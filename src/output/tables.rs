@@ -64,9 +64,11 @@ const STAT_FIELDS: [&str; 9] = [
     "n", "mean", "ci95", "sd", "min", "p01", "median", "p99", "max",
 ];
 
-/// `summary.parquet`: one row per (law, contact set). Columns `law`,
-/// `contact_set` (`all`, `(none)` or the `+`-joined active planes),
-/// `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
+/// `summary.parquet`: one row per (law, contact set), and for a drop scene
+/// (whose contact-set rows are each sample's first impact) one row per
+/// (law, bounce) with the bounce statistics. Columns `law`, `contact_set`
+/// (`all`, `(none)` or the `+`-joined active planes), `bounce` (drop
+/// scenes only; null on the first-impact rows), `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
 /// group keeps no quantiles), and `fraction_FLAG` / `fraction_FLAG_ci95` on
 /// the "all" rows. Units are in the file's key-value metadata (`units`).
 fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
@@ -77,6 +79,7 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut stat_names: Vec<String> = Vec::new();
     let mut fraction_names: Vec<String> = Vec::new();
     let mut rows: Vec<Row> = Vec::new();
+    let mut bounce_col: Vec<Option<u32>> = Vec::new();
     for (law, lv) in &summary.laws {
         let Some(groups) = lv.get("groups").and_then(|g| g.as_object()) else {
             continue;
@@ -103,15 +106,55 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                 }
             }
             rows.push((stats, g.fractions, g.fractions_ci95));
+            bounce_col.push(None);
+        }
+        // A drop scene's bounces: one row each, over the samples reaching it.
+        let bounces = summary.drops.get(law).and_then(|d| d["bounces"].as_array());
+        for b in bounces.into_iter().flatten() {
+            let reached = b["reached"].as_u64().unwrap_or(0);
+            law_col.push(law.clone());
+            group_col.push("all".into());
+            samples.push(reached);
+            impacts.push(reached);
+            bounce_col.push(b["bounce"].as_u64().map(|k| k as u32));
+            let mut stats = std::collections::HashMap::new();
+            for name in ["energy_ratio", "interval_seconds", "speed_before"] {
+                if !stat_names.iter().any(|n| n == name) {
+                    stat_names.push(name.into());
+                }
+                if let Ok(st) = serde_json::from_value::<StatSummary>(b[name].clone()) {
+                    stats.insert(name.to_string(), st);
+                }
+            }
+            let mut fractions = serde_json::Map::new();
+            let mut cis = serde_json::Map::new();
+            for name in ["energy_gain", "degenerate"] {
+                let k = b[name].as_u64().unwrap_or(0);
+                let (p, ci) = if reached == 0 {
+                    (f64::NAN, f64::NAN)
+                } else {
+                    let p = k as f64 / reached as f64;
+                    (p, 1.96 * (p * (1.0 - p) / reached as f64).sqrt())
+                };
+                fractions.insert(name.into(), serde_json::json!(p));
+                cis.insert(name.into(), serde_json::json!(ci));
+            }
+            rows.push((stats, fractions, cis));
         }
     }
     let height = rows.len();
     let mut cols = vec![
         Column::new("law".into(), law_col),
         Column::new("contact_set".into(), group_col),
+    ];
+    if !summary.drops.is_empty() {
+        // Null on the first-impact rows.
+        cols.push(Column::new("bounce".into(), bounce_col));
+    }
+    cols.extend([
         Column::new("samples".into(), samples),
         Column::new("impacts".into(), impacts),
-    ];
+    ]);
     for name in &stat_names {
         for field in STAT_FIELDS {
             let col = format!("{name}_{field}");
@@ -324,4 +367,141 @@ pub fn write_parquet(
             .map(|_| ())
             .map_err(|source| OutputError::Parquet { path, source })
     })
+}
+
+/// A grid point's drop statistics per law: (law name, accumulators).
+pub type DropAccs<'a> = Vec<(String, &'a crate::stats::drops::DropAcc)>;
+
+/// The tables of a drop study, each with `point` and the `sweep_*` columns
+/// in front: `bounces.parquet` (law, bounce, reached, fraction_of_samples,
+/// the energy ratio's mean, ci95 and sd, interval_seconds' mean and ci95,
+/// speed_before's mean), `planes_hit.parquet` (law, bounce, planes, count,
+/// fraction of the samples reaching the bounce), `simultaneity.parquet`
+/// (law, bounce, tolerance, fraction of its impacts whose second-closest
+/// plane was within it) and `sequences.parquet` (law, sequence of the
+/// planes hit over the first impacts, count, fraction of samples).
+pub fn drop_frames(
+    points: &[(PointValues, DropAccs<'_>)],
+    planes: &[String],
+) -> PolarsResult<[(&'static str, DataFrame); 4]> {
+    use crate::output::summary::{active_set_name, sequence_name};
+    use crate::stats::drops::SIMULTANEITY_TOLERANCES;
+    let mut out: [Vec<DataFrame>; 4] = Default::default();
+    for (i, (values, laws)) in points.iter().enumerate() {
+        let (mut law, mut bounce, mut reached, mut frac) = (vec![], vec![], vec![], vec![]);
+        let mut cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); 6];
+        let (mut p_law, mut p_bounce, mut p_set, mut p_count, mut p_frac) =
+            (vec![], vec![], vec![], vec![], vec![]);
+        let (mut s_law, mut s_bounce, mut s_tol, mut s_frac) = (vec![], vec![], vec![], vec![]);
+        let (mut q_law, mut q_seq, mut q_count, mut q_frac) = (vec![], vec![], vec![], vec![]);
+        for (l, a) in laws {
+            for (k, b) in a.bounces.iter().enumerate() {
+                law.push(l.clone());
+                bounce.push(k as u32 + 1);
+                reached.push(b.reached);
+                frac.push(b.reached as f64 / a.samples.max(1) as f64);
+                let some = |x: f64| (b.reached > 0 && x.is_finite()).then_some(x);
+                for (c, x) in cols.iter_mut().zip([
+                    b.energy_ratio.mean(),
+                    b.energy_ratio.ci95(),
+                    b.energy_ratio.sd(),
+                    b.interval.mean(),
+                    b.interval.ci95(),
+                    b.speed_before.mean(),
+                ]) {
+                    c.push(some(x));
+                }
+                for (mask, &c) in b.sets.iter().enumerate() {
+                    if c > 0 {
+                        p_law.push(l.clone());
+                        p_bounce.push(k as u32 + 1);
+                        p_set.push(active_set_name(mask, planes));
+                        p_count.push(c);
+                        p_frac.push(c as f64 / b.reached as f64);
+                    }
+                }
+                for (&tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
+                    s_law.push(l.clone());
+                    s_bounce.push(k as u32 + 1);
+                    s_tol.push(tol);
+                    s_frac.push((b.reached > 0).then(|| c as f64 / b.reached as f64));
+                }
+            }
+            for (cell, &c) in a.sequences.iter().enumerate() {
+                if c > 0 {
+                    q_law.push(l.clone());
+                    q_seq.push(sequence_name(&a.sequence_masks(cell), planes));
+                    q_count.push(c);
+                    q_frac.push(c as f64 / a.samples.max(1) as f64);
+                }
+            }
+        }
+        let mut columns = vec![
+            Column::new("law".into(), law),
+            Column::new("bounce".into(), bounce),
+            Column::new("reached".into(), reached),
+            Column::new("fraction_of_samples".into(), frac),
+        ];
+        for (name, c) in [
+            "energy_ratio_mean",
+            "energy_ratio_ci95",
+            "energy_ratio_sd",
+            "interval_seconds_mean",
+            "interval_seconds_ci95",
+            "speed_before_mean",
+        ]
+        .into_iter()
+        .zip(cols)
+        {
+            columns.push(Column::new(name.into(), c));
+        }
+        let frames = [
+            DataFrame::new(columns[0].len(), columns)?,
+            DataFrame::new(
+                p_law.len(),
+                vec![
+                    Column::new("law".into(), p_law),
+                    Column::new("bounce".into(), p_bounce),
+                    Column::new("planes".into(), p_set),
+                    Column::new("count".into(), p_count),
+                    Column::new("fraction".into(), p_frac),
+                ],
+            )?,
+            DataFrame::new(
+                s_law.len(),
+                vec![
+                    Column::new("law".into(), s_law),
+                    Column::new("bounce".into(), s_bounce),
+                    Column::new("tolerance".into(), s_tol),
+                    Column::new("fraction".into(), s_frac),
+                ],
+            )?,
+            DataFrame::new(
+                q_law.len(),
+                vec![
+                    Column::new("law".into(), q_law),
+                    Column::new("sequence".into(), q_seq),
+                    Column::new("count".into(), q_count),
+                    Column::new("fraction".into(), q_frac),
+                ],
+            )?,
+        ];
+        for (o, df) in out.iter_mut().zip(frames) {
+            o.push(with_point_columns(df, i, values)?);
+        }
+    }
+    let names = [
+        "bounces.parquet",
+        "planes_hit.parquet",
+        "simultaneity.parquet",
+        "sequences.parquet",
+    ];
+    let mut frames = out.into_iter().map(|dfs| stack_points(dfs.into_iter().map(Ok)));
+    let mut next = || frames.next().expect("four tables");
+    Ok([
+        (names[0], next()?),
+        (names[1], next()?),
+        (names[2], next()?),
+        (names[3], next()?),
+    ])
 }

@@ -1,8 +1,11 @@
 //! Mergeable accumulators of a run: counts, moments and histograms per law,
 //! per touching plane and per active set, and the paired differences
-//! between laws. [`RunAcc::visit`] walks every field by a stable path; the
-//! shard files store and restore accumulators through it.
+//! between laws, and a drop study's per-law [`DropAcc`]. [`RunAcc::visit`]
+//! walks every field by a stable path; the shard files store and restore
+//! accumulators through it.
 
+use crate::config::Scene;
+use crate::stats::drops::DropAcc;
 use crate::stats::{LogHistogram, Moments, Stat};
 
 /// Statistics of the samples in one active-contact set.
@@ -52,9 +55,38 @@ pub struct PairAcc {
 
 #[derive(Debug, Clone)]
 pub struct RunAcc {
+    /// A contact scene's impact, or a drop scene's first impact, per law.
     pub laws: Vec<LawAcc>,
     /// `pairs[i]` is laws[i + 1] − laws[0].
     pub pairs: Vec<PairAcc>,
+    /// A drop scene's bounces, per law (empty for a contact scene).
+    pub drops: Vec<DropAcc>,
+}
+
+/// The shape of a run's accumulators: what a fresh or restored one holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shape {
+    pub laws: usize,
+    /// Planes per active set: the touching planes of a contact scene, every
+    /// plane of a drop scene.
+    pub contacts: usize,
+    /// `effects.bounces` of a drop scene; 0 for a contact scene.
+    pub bounces: usize,
+}
+
+impl Shape {
+    pub fn of(scene: &Scene) -> Self {
+        let drop = scene.drop_box().is_some();
+        Self {
+            laws: scene.laws().len(),
+            contacts: scene.recorded_planes().len(),
+            bounces: if drop {
+                scene.effects().bounces as usize
+            } else {
+                0
+            },
+        }
+    }
 }
 
 impl LawAcc {
@@ -80,10 +112,29 @@ impl LawAcc {
 }
 
 impl RunAcc {
+    /// A contact scene's accumulators.
     pub fn new(laws: usize, contacts: usize) -> Self {
+        Self::shaped(Shape {
+            laws,
+            contacts,
+            bounces: 0,
+        })
+    }
+
+    pub fn shaped(shape: Shape) -> Self {
+        let Shape {
+            laws,
+            contacts,
+            bounces,
+        } = shape;
         Self {
             laws: (0..laws).map(|_| LawAcc::new(contacts)).collect(),
             pairs: vec![PairAcc::default(); laws.saturating_sub(1)],
+            drops: if bounces == 0 {
+                Vec::new()
+            } else {
+                (0..laws).map(|_| DropAcc::new(contacts, bounces)).collect()
+            },
         }
     }
 
@@ -227,6 +278,9 @@ impl RunAcc {
             for (name, m) in headline {
                 f(&|| format!("pair{}.{name}", pi + 1), Slot::Moments(m));
             }
+        }
+        for (li, d) in self.drops.iter_mut().enumerate() {
+            d.walk(&|| format!("drop{li}"), f);
         }
     }
 }

@@ -4,6 +4,7 @@
 
 pub mod accumulators;
 pub mod block;
+pub mod drops;
 mod histogram;
 mod moments;
 pub mod tree;

@@ -3,7 +3,7 @@
 //! threads of one run, or the shards of a study merged later), so the answer
 //! depends neither on the thread count nor on the sharding.
 
-use crate::stats::accumulators::RunAcc;
+use crate::stats::accumulators::{RunAcc, Shape};
 
 /// The maximal merge-tree nodes inside `range`, in batch order (what
 /// [`TreeStack`] holds after pushing the range's batches one by one).
@@ -90,12 +90,7 @@ impl TreeStack {
 /// The root of the merge tree over `batches` batches from nodes that do not
 /// overlap. Batches no node covers count as empty; their number is returned
 /// with the (unfinished) accumulator.
-pub fn reduce_tree(
-    nodes: Vec<(Node, RunAcc)>,
-    batches: u64,
-    laws: usize,
-    contacts: usize,
-) -> (RunAcc, u64) {
+pub fn reduce_tree(nodes: Vec<(Node, RunAcc)>, batches: u64, shape: Shape) -> (RunAcc, u64) {
     let mut map: std::collections::HashMap<Node, RunAcc> = nodes.into_iter().collect();
     let mut levels = 0;
     while (1u64 << levels) < batches {
@@ -110,7 +105,7 @@ pub fn reduce_tree(
         batches,
         &mut map,
         &mut missing,
-        &|| RunAcc::new(laws, contacts),
+        &|| RunAcc::shaped(shape),
     );
     (root, missing)
 }

@@ -1,0 +1,226 @@
+//! Mergeable statistics of a drop study, per law: per bounce (samples
+//! reaching it, planes hit, energy ratio, interval, speed before,
+//! simultaneity), the sequences of planes hit over the first impacts, the
+//! number of impacts, how each sample ended and the final axis up.
+//!
+//! Every field is a count or [`Moments`], walked by
+//! [`crate::stats::accumulators::RunAcc::visit`] like the contact
+//! statistics, so shards, merges and clearing treat both alike.
+
+use crate::stats::accumulators::Slot;
+use crate::stats::Moments;
+
+/// Tolerances at which the share of simultaneous impacts is reported (m):
+/// an impact counts as simultaneous within `tol` if its second-closest plane
+/// was within `tol` at the moment of impact.
+pub const SIMULTANEITY_TOLERANCES: [f64; 12] = [
+    1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1,
+];
+
+/// Most impacts a sequence of planes hit covers.
+pub const SEQUENCE_IMPACTS: usize = 3;
+
+/// Most distinct sequences counted per law (so many planes shorten them).
+const SEQUENCE_CELLS: usize = 4096;
+
+/// How a sample's bounces ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// No further impact within the horizon.
+    FlewAway,
+    /// Kinetic energy after an impact below `energy_floor` of the first
+    /// impact's.
+    CameToRest,
+    /// `effects.bounces` impacts done.
+    BounceLimit,
+    /// An impact the reference could not solve.
+    Unsolved,
+    /// Repeated touches without approach (a resting or rolling contact that
+    /// free flight cannot follow).
+    Stalled,
+}
+
+impl Ending {
+    pub const ALL: [Ending; 5] = [
+        Ending::FlewAway,
+        Ending::CameToRest,
+        Ending::BounceLimit,
+        Ending::Unsolved,
+        Ending::Stalled,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Ending::FlewAway => "flew_away",
+            Ending::CameToRest => "came_to_rest",
+            Ending::BounceLimit => "bounce_limit",
+            Ending::Unsolved => "unsolved",
+            Ending::Stalled => "stalled",
+        }
+    }
+}
+
+/// Statistics of the k-th impact of every sample that reached it.
+#[derive(Debug, Clone, Default)]
+pub struct BounceAcc {
+    pub reached: u64,
+    /// By set of planes that took an impulse (bit i: plane i).
+    pub sets: Vec<u64>,
+    pub energy_ratio: Moments,
+    /// Time since release (first impact) or since the previous impact (s).
+    pub interval: Moments,
+    /// Speed of the centre just before the impact (m/s).
+    pub speed_before: Moments,
+    /// Impacts whose second-closest plane was within each tolerance of
+    /// [`SIMULTANEITY_TOLERANCES`].
+    pub within: [u64; 12],
+    pub energy_gain: u64,
+    pub degenerate: u64,
+}
+
+/// One law's drop statistics.
+#[derive(Debug, Clone)]
+pub struct DropAcc {
+    pub samples: u64,
+    pub bounces: Vec<BounceAcc>,
+    /// Samples by number of impacts (index 0..=bounces).
+    pub impacts: Vec<u64>,
+    /// Samples by [`Ending`], in [`Ending::ALL`] order.
+    pub endings: [u64; 5],
+    /// Body axis (a, b, c) closest to vertical when the bounces stop.
+    pub final_axis_up: [u64; 3],
+    /// Samples by the sets of planes hit at their first
+    /// [`DropAcc::sequence_impacts`] impacts ([`DropAcc::sequence_cell`]).
+    pub sequences: Vec<u64>,
+    planes: usize,
+}
+
+impl DropAcc {
+    pub fn new(planes: usize, bounces: usize) -> Self {
+        let mut acc = Self {
+            samples: 0,
+            bounces: (0..bounces)
+                .map(|_| BounceAcc {
+                    sets: vec![0; 1 << planes],
+                    ..Default::default()
+                })
+                .collect(),
+            impacts: vec![0; bounces + 1],
+            endings: [0; 5],
+            final_axis_up: [0; 3],
+            sequences: Vec::new(),
+            planes,
+        };
+        acc.sequences = vec![0; (1usize << planes).pow(acc.sequence_impacts() as u32)];
+        acc
+    }
+
+    /// Impacts a sequence covers: up to [`SEQUENCE_IMPACTS`], fewer when
+    /// the bounce limit is lower or the planes so many that the sequences
+    /// would not fit in 4,096 cells.
+    pub fn sequence_impacts(&self) -> usize {
+        let mut k = SEQUENCE_IMPACTS.min(self.bounces.len());
+        while k > 1 && (1usize << self.planes).pow(k as u32) > SEQUENCE_CELLS {
+            k -= 1;
+        }
+        k
+    }
+
+    /// The cell of a sample whose first impacts hit the sets `masks` (0 past
+    /// its last impact): the masks as digits in base 2^planes, first impact
+    /// lowest.
+    pub fn sequence_cell(&self, masks: &[usize]) -> usize {
+        let base = 1usize << self.planes;
+        masks
+            .iter()
+            .take(self.sequence_impacts())
+            .rev()
+            .fold(0, |cell, &m| cell * base + m)
+    }
+
+    /// The sets of planes of a cell, first impact first, without the empty
+    /// sets past the sample's last impact.
+    pub fn sequence_masks(&self, mut cell: usize) -> Vec<usize> {
+        let base = 1usize << self.planes;
+        let mut masks = Vec::new();
+        for _ in 0..self.sequence_impacts() {
+            masks.push(cell % base);
+            cell /= base;
+        }
+        while masks.last() == Some(&0) {
+            masks.pop();
+        }
+        masks
+    }
+
+    /// Every field in a fixed order, with its path below `prefix`.
+    pub(crate) fn walk<'a>(
+        &'a mut self,
+        prefix: &dyn Fn() -> String,
+        f: &mut dyn FnMut(&dyn Fn() -> String, Slot<'a>),
+    ) {
+        f(
+            &|| format!("{}.samples", prefix()),
+            Slot::Count(&mut self.samples),
+        );
+        for (k, c) in self.impacts.iter_mut().enumerate() {
+            f(&|| format!("{}.impacts.{k}", prefix()), Slot::Count(c));
+        }
+        for (e, c) in Ending::ALL.iter().zip(self.endings.iter_mut()) {
+            f(&|| format!("{}.{}", prefix(), e.name()), Slot::Count(c));
+        }
+        for (k, c) in self.final_axis_up.iter_mut().enumerate() {
+            f(&|| format!("{}.final_axis_up.{k}", prefix()), Slot::Count(c));
+        }
+        for (k, c) in self.sequences.iter_mut().enumerate() {
+            f(&|| format!("{}.sequences.{k}", prefix()), Slot::Count(c));
+        }
+        for (k, b) in self.bounces.iter_mut().enumerate() {
+            let bounce = || format!("{}.bounce{}", prefix(), k + 1);
+            for (name, c) in [
+                ("reached", &mut b.reached),
+                ("energy_gain", &mut b.energy_gain),
+                ("degenerate", &mut b.degenerate),
+            ] {
+                f(&|| format!("{}.{name}", bounce()), Slot::Count(c));
+            }
+            for (m, c) in b.sets.iter_mut().enumerate() {
+                f(&|| format!("{}.sets.{m}", bounce()), Slot::Count(c));
+            }
+            for (t, c) in b.within.iter_mut().enumerate() {
+                f(&|| format!("{}.within.{t}", bounce()), Slot::Count(c));
+            }
+            for (name, m) in [
+                ("energy_ratio", &mut b.energy_ratio),
+                ("interval", &mut b.interval),
+                ("speed_before", &mut b.speed_before),
+            ] {
+                f(&|| format!("{}.{name}", bounce()), Slot::Moments(m));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sequence_cells_round_trip() {
+        for (planes, bounces) in [(1, 20), (3, 5), (3, 2), (4, 5), (6, 9)] {
+            let acc = DropAcc::new(planes, bounces);
+            let k = acc.sequence_impacts();
+            assert!(acc.sequences.len() <= SEQUENCE_CELLS);
+            assert_eq!(acc.sequences.len(), (1usize << planes).pow(k as u32));
+            for cell in 0..acc.sequences.len() {
+                let mut masks = acc.sequence_masks(cell);
+                assert!(masks.len() <= k);
+                masks.resize(k, 0);
+                assert_eq!(acc.sequence_cell(&masks), cell, "{planes} planes");
+            }
+        }
+        assert_eq!(DropAcc::new(3, 5).sequence_impacts(), 3);
+        assert_eq!(DropAcc::new(3, 2).sequence_impacts(), 2);
+        assert_eq!(DropAcc::new(6, 9).sequence_impacts(), 2);
+    }
+}
