@@ -21,11 +21,11 @@ use crate::output::samples::{SamplesWriter, Selection};
 use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
 use crate::output::summary::Summary;
 use crate::output::{
-    drop_frames, histograms_frame, summary_frame, write_parquet, DropAccs, OutputError, PointValues,
-    Staging,
+    drop_frames, histograms_frame, summary_frame, write_parquet, DropAccs, OutputError,
+    PointValues, Staging,
 };
-use crate::stats::tree::Shard;
 use crate::stats::accumulators::Shape;
+use crate::stats::tree::Shard;
 use crate::stats::RunResult;
 
 /// One grid point's run.
@@ -97,21 +97,22 @@ pub fn run_study(
     let mut staging = Staging::new(dir);
     // Every default explicit in the manifest.
     let output = raw.output.get_or_insert_with(Default::default).clone();
-    let mut writer = if output.per_sample {
-        let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
-            .map_err(|m| SceneError {
-                file: file.clone(),
-                line: crate::config::line_of(&text, &["output", "columns"]),
-                field: "output.columns".into(),
-                message: m,
-            })?;
-        Some(SamplesWriter::new(
-            staging.create("samples.parquet")?,
-            selection,
-        ))
-    } else {
-        None
-    };
+    let mut writer =
+        if output.per_sample {
+            let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
+                .map_err(|m| SceneError {
+                    file: file.clone(),
+                    line: crate::config::line_of(&text, &["output", "columns"]),
+                    field: "output.columns".into(),
+                    message: m,
+                })?;
+            Some(SamplesWriter::new(
+                staging.create("samples.parquet")?,
+                selection,
+            ))
+        } else {
+            None
+        };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();

@@ -9,7 +9,19 @@ mod support;
 use support::{bin, repo, scratch};
 
 use impactmc::config::{load_scene, Overrides, Scene};
-use impactmc::drop::run_drop;
+use impactmc::engine::{run, RunOptions};
+use impactmc::output::summary::Summary;
+
+fn run_drop(s: &Scene, threads: usize) -> impactmc::stats::RunResult {
+    run(
+        s,
+        &RunOptions {
+            threads,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
 
 fn scene_text(text: &str, tag: &str) -> Result<Scene, String> {
     let d = scratch(&format!("drop-{tag}"));
@@ -118,8 +130,8 @@ fn bouncing_sphere_matches_the_closed_form() {
     let s = scene_text(&sphere_drop(k, h, vx, 4), "sphere").unwrap();
     assert!(!s.effects().rotational_coupling && !s.effects().coupled_contacts);
     assert_eq!(s.effects().flight_rotation, "precession");
-    let run = run_drop(&s, 2).unwrap();
-    let (_, a) = &run.laws[0];
+    let run = run_drop(&s, 2);
+    let a = &run.acc.drops[0];
     let u0 = (2.0 * g * h).sqrt();
     let mut u = u0; // vertical speed just before the bounce
     for (n, b) in a.bounces.iter().enumerate() {
@@ -154,15 +166,16 @@ fn drop_results_do_not_depend_on_threads() {
         },
     )
     .unwrap();
-    let strip = |mut v: serde_json::Value| {
+    let strip = |r: impactmc::stats::RunResult| {
+        let mut v = serde_json::to_value(Summary::new(&s, &r)).unwrap();
         v.as_object_mut().unwrap().remove("throughput");
         v.as_object_mut().unwrap().remove("threads");
         v
     };
-    let one = strip(run_drop(&s, 1).unwrap().summary_json(&s));
-    let two = strip(run_drop(&s, 2).unwrap().summary_json(&s));
+    let one = strip(run_drop(&s, 1));
+    let two = strip(run_drop(&s, 2));
     assert_eq!(one, two);
-    assert_eq!(one["laws"]["newton"]["bounces"][0]["reached"], 3000);
+    assert_eq!(one["drops"]["newton"]["bounces"][0]["reached"], 3000);
 }
 
 #[test]
@@ -230,8 +243,7 @@ fn drop_corner_from_the_command_line() {
         "{stderr}"
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["effects"]["bounces"], 5);
-    let b = &v["laws"]["newton"]["bounces"];
+    let b = &v["drops"]["newton"]["bounces"];
     assert_eq!(b.as_array().unwrap().len(), 5);
     // Exact simultaneity has probability zero: no first impact has a second
     // plane within 1e-9 m, yet a wide tolerance makes many simultaneous.
@@ -242,6 +254,9 @@ fn drop_corner_from_the_command_line() {
         "bounces.parquet",
         "planes_hit.parquet",
         "simultaneity.parquet",
+        "sequences.parquet",
+        "summary.parquet",
+        "histograms.parquet",
         "summary.json",
         "manifest.json",
     ] {
@@ -250,6 +265,7 @@ fn drop_corner_from_the_command_line() {
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["effects"]["flight"], true);
+    assert_eq!(m["effects"]["bounces"], 5);
     // `inspect` reads a drop folder too.
     let out = bin().arg("inspect").arg(&d).output().unwrap();
     assert!(
@@ -257,5 +273,277 @@ fn drop_corner_from_the_command_line() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(String::from_utf8_lossy(&out.stdout).contains("\"bounces\""));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("sequences over the first 3 impacts"),
+        "{text}"
+    );
+}
+
+/// Relative difference, 0 for equal values (NaN equal to NaN).
+fn rel(a: f64, b: f64) -> f64 {
+    if a == b || (a.is_nan() && b.is_nan()) {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
+    }
+}
+
+/// Every number of `old` against `new` at the same path: counts (integers)
+/// exactly, floats to `tol` relative. Returns the paths compared.
+fn agree(old: &serde_json::Value, new: &serde_json::Value, path: &str, tol: f64) -> usize {
+    use serde_json::Value;
+    match (old, new) {
+        (Value::Object(a), Value::Object(b)) => a
+            .iter()
+            .map(|(k, v)| {
+                let w = b.get(k).unwrap_or_else(|| panic!("{path}.{k} is missing"));
+                agree(v, w, &format!("{path}.{k}"), tol)
+            })
+            .sum(),
+        (Value::Array(a), Value::Array(b)) => {
+            assert_eq!(a.len(), b.len(), "{path}: lengths");
+            a.iter()
+                .zip(b)
+                .enumerate()
+                .map(|(i, (v, w))| agree(v, w, &format!("{path}[{i}]"), tol))
+                .sum()
+        }
+        (Value::Number(a), Value::Number(b)) if a.is_u64() => {
+            assert_eq!(a, b, "{path}");
+            1
+        }
+        (Value::Number(a), Value::Number(b)) => {
+            let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+            assert!(rel(a, b) <= tol, "{path}: {a} vs {b}");
+            1
+        }
+        (a, b) => {
+            assert_eq!(a, b, "{path}");
+            1
+        }
+    }
+}
+
+/// The engine's drop path against the scalar drop runner of impactmc 0.4.0:
+/// `tests/frozen/drops-0.4.0/*.json` are that version's summaries of 20,000
+/// samples of the shipped drop scenes (`impactmc run SCENE --samples 20000
+/// --format json`, timing removed), written by that binary. The per-sample
+/// physics is the same, so every count agrees exactly and every moment to
+/// rounding (the batches are merged in another order).
+#[test]
+fn drop_statistics_agree_with_the_0_4_0_runner() {
+    for name in ["drop_corner", "drop_dice"] {
+        let path = repo(&format!("tests/frozen/drops-0.4.0/{name}.json"));
+        let old: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let s = load_scene(
+            &repo(&format!("configs/{name}.toml")),
+            &Overrides {
+                samples: Some(20_000),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let summary = serde_json::to_value(Summary::new(&s, &run_drop(&s, 2))).unwrap();
+        let mut compared = 0;
+        for (law, want) in old["laws"].as_object().unwrap() {
+            compared += agree(want, &summary["drops"][law], law, 1e-12);
+        }
+        assert!(compared > 100, "{name}: only {compared} values compared");
+    }
+}
+
+fn write_scene(tag: &str, text: &str) -> std::path::PathBuf {
+    let d = scratch(&format!("drop-{tag}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let p = d.join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn run_cli(scene: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let o = bin()
+        .arg("run")
+        .arg(scene)
+        .args(["--format", "json", "--force", "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+fn strip_timing(mut v: serde_json::Value) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        if let Some(o) = v.as_object_mut() {
+            o.remove("throughput");
+            o.remove("threads");
+            for (_, x) in o.iter_mut() {
+                strip(x);
+            }
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(strip);
+        }
+    }
+    strip(&mut v);
+    v
+}
+
+/// Three shards of drop_corner (two laws, every histogram kept), merged,
+/// give the single run's summary and tables to the last bit.
+#[test]
+fn drop_shards_merge_to_the_single_run() {
+    let text = std::fs::read_to_string(repo("configs/drop_corner.toml"))
+        .unwrap()
+        .replacen("samples = ", "batch_size = 256\nsamples = ", 1)
+        + "\n[statistics]\nquantiles = [\"energy_ratio\", \"omega_after_norm\", \
+           \"velocity_after_norm\", \"impulse\", \"rebound\"]\n";
+    let scene = write_scene("shards", &text);
+    let root = scene.parent().unwrap().to_path_buf();
+    let args = ["--samples", "5000", "--law", "newton", "--law", "paper"];
+    let single = run_cli(&scene, &root.join("single"), &args);
+    let mut dirs = Vec::new();
+    for i in 0..3 {
+        let d = root.join(format!("shard-{i}"));
+        let shard = format!("{i}/3");
+        let mut a = args.to_vec();
+        a.extend(["--shard", &shard, "--threads", "1"]);
+        run_cli(&scene, &d, &a);
+        dirs.push(d);
+    }
+    let o = bin()
+        .arg("merge")
+        .args(&dirs)
+        .args(["--format", "json", "--out"])
+        .arg(root.join("merged"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(strip_timing(merged), strip_timing(single.clone()));
+    assert_eq!(single["drops"]["paper"]["samples"], 5000);
+    for table in [
+        "summary.parquet",
+        "histograms.parquet",
+        "bounces.parquet",
+        "planes_hit.parquet",
+        "simultaneity.parquet",
+        "sequences.parquet",
+    ] {
+        let read = |d: &std::path::Path| {
+            let f = std::fs::File::open(d.join(table)).unwrap();
+            polars::prelude::ParquetReader::new(f).finish().unwrap()
+        };
+        use polars::prelude::SerReader;
+        let (a, b) = (read(&root.join("single")), read(&root.join("merged")));
+        assert!(a.height() > 0, "{table} is empty");
+        assert!(a.equals_missing(&b), "{table} differs");
+    }
+}
+
+/// A sweep over gravity and the floor's restitution on the bouncing
+/// sphere: every point has the closed form's first flight time √(2h/g) and
+/// first energy ratio k² (common random numbers: the same samples).
+#[test]
+fn a_sweep_over_gravity_and_restitution_runs_on_a_drop_scene() {
+    let h = 1.0;
+    let text = sphere_drop(0.8, h, 0.0, 2).replace("[effects]\n", "[effects]\ngravity = 9.81\n")
+        + "\n[sweep]\n\"effects.gravity\" = [4.9, 9.81]\n\"planes.floor.restitution\" = [0.5, 0.9]\n";
+    let scene = write_scene("sweep", &text);
+    let v = run_cli(&scene, &scene.parent().unwrap().join("out"), &[]);
+    let points = v["points"].as_array().unwrap();
+    assert_eq!(points.len(), 4);
+    for p in points {
+        let g = p["values"]["effects.gravity"].as_f64().unwrap();
+        let k = p["values"]["planes.floor.restitution"].as_f64().unwrap();
+        let b = &p["summary"]["drops"]["newton"]["bounces"][0];
+        let t = b["interval_seconds"]["mean"].as_f64().unwrap();
+        let ratio = b["energy_ratio"]["mean"].as_f64().unwrap();
+        assert!(rel(t, (2.0 * h / g).sqrt()) < 1e-9, "g {g}: {t}");
+        assert!(rel(ratio, k * k) < 1e-9, "k {k}: {ratio}");
+        assert_eq!(b["reached"], 64);
+    }
+}
+
+/// `--per-sample` on a drop scene writes one row per sample, law and
+/// impact, whose counts and energy ratios add up to the summary's.
+#[test]
+fn per_impact_rows_add_up_to_the_summary() {
+    use polars::prelude::*;
+    let out = scratch("drop-rows");
+    let v = run_cli(
+        &repo("configs/drop_corner.toml"),
+        &out,
+        &[
+            "--samples",
+            "3000",
+            "--law",
+            "newton",
+            "--law",
+            "poisson",
+            "--per-sample",
+        ],
+    );
+    let df = ParquetReader::new(std::fs::File::open(out.join("samples.parquet")).unwrap())
+        .finish()
+        .unwrap();
+    let law: Vec<String> = df
+        .column("law")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|x| x.unwrap().to_string())
+        .collect();
+    let bounce: Vec<u32> = df
+        .column("bounce")
+        .unwrap()
+        .u32()
+        .unwrap()
+        .into_no_null_iter()
+        .collect();
+    let sample: Vec<u64> = df
+        .column("sample")
+        .unwrap()
+        .u64()
+        .unwrap()
+        .into_no_null_iter()
+        .collect();
+    let ratio: Vec<f64> = df
+        .column("energy_ratio")
+        .unwrap()
+        .f64()
+        .unwrap()
+        .into_no_null_iter()
+        .collect();
+    for name in ["newton", "poisson"] {
+        let rows: Vec<usize> = (0..law.len()).filter(|&r| law[r] == name).collect();
+        let bounces = v["drops"][name]["bounces"].as_array().unwrap();
+        let reached: u64 = bounces.iter().map(|b| b["reached"].as_u64().unwrap()).sum();
+        assert_eq!(rows.len() as u64, reached, "{name}: rows");
+        for b in bounces {
+            let k = b["bounce"].as_u64().unwrap() as u32;
+            let at: Vec<usize> = rows.iter().copied().filter(|&r| bounce[r] == k).collect();
+            assert_eq!(
+                at.len() as u64,
+                b["reached"].as_u64().unwrap(),
+                "{name} bounce {k}"
+            );
+            let sum: f64 = at.iter().map(|&r| ratio[r]).sum();
+            let mean = b["energy_ratio"]["mean"].as_f64().unwrap();
+            assert!(
+                rel(sum / at.len() as f64, mean) < 1e-12,
+                "{name} bounce {k}"
+            );
+        }
+        // Rows come in sample order, bounces in order within a sample.
+        assert!(
+            rows.windows(2)
+                .all(|w| (sample[w[0]], bounce[w[0]]) < (sample[w[1]], bounce[w[1]])),
+            "{name}: order"
+        );
+    }
 }

@@ -149,3 +149,110 @@ fn python_readers_agree_with_the_run() {
     eprintln!("{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A drop scene's per-impact rows and tables in the three readers, and
+/// DuckDB rebuilding the run's per-bounce counts and the frequencies of the
+/// sequences of planes hit from the rows alone.
+#[test]
+fn python_readers_rebuild_drop_sequences_from_per_impact_rows() {
+    if !support::available_or_skip(
+        readers_available(),
+        "IMPACTMC_REQUIRE_READERS",
+        "pyarrow, duckdb and polars",
+        "pip install -r .ci/requirements-readers.txt",
+    ) {
+        return;
+    }
+    let dir = scratch("readers-drop");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = bin()
+        .args([
+            "run",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/configs/drop_corner.toml"),
+            "--samples",
+            "4000",
+            "--per-sample",
+            "--format",
+            "json",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let drop = &printed["drops"]["newton"];
+    let bounces = drop["bounces"].as_array().unwrap();
+    let reached: Vec<u64> = bounces
+        .iter()
+        .map(|b| b["reached"].as_u64().unwrap())
+        .collect();
+    let expected = serde_json::json!({
+        "files": {
+            "samples.parquet": {"rows": reached.iter().sum::<u64>(), "columns": [
+                "sample", "law", "time", "interval", "centre_z", "q_w", "v_x", "omega_z",
+                "energy_before", "energy_after", "energy_ratio", "v_after_x", "omega_after_z",
+                "distance_floor", "vn_before_wall_x", "vn_after_wall_y", "impulse_floor",
+                "bounce", "planes", "flags"]},
+            "bounces.parquet": {"rows": bounces.len(), "columns": [
+                "point", "law", "bounce", "reached", "energy_ratio_mean", "interval_seconds_mean"]},
+            "sequences.parquet": {"rows": drop["sequences"].as_array().unwrap().len(),
+                "columns": ["point", "law", "sequence", "count", "fraction"]},
+            "summary.parquet": {"rows": null, "columns": ["law", "contact_set", "bounce", "samples"]},
+        },
+        "value": {"file": "bounces.parquet", "column": "energy_ratio_mean",
+                  "where": {"law": "newton", "bounce": 2},
+                  "equals": bounces[1]["energy_ratio"]["mean"]},
+    });
+    let exp_path = dir.join("expected.json");
+    std::fs::write(&exp_path, expected.to_string()).unwrap();
+    let check = Command::new("python3")
+        .arg(repo("tests/python/check_outputs.py"))
+        .arg(&dir)
+        .arg(&exp_path)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success(),
+        "{report}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    // Per bounce, the rows are the samples that reached it.
+    let query = |sql: &str| {
+        let o = Command::new("python3")
+            .args([
+                "-c",
+                "import sys, duckdb; print(duckdb.connect().execute(sys.argv[1].replace('ROWS', \"read_parquet('\" + sys.argv[2] + \"')\")).fetchall())",
+            ])
+            .arg(sql)
+            .arg(dir.join("samples.parquet"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    let per_bounce = query("SELECT count(*) FROM ROWS GROUP BY bounce ORDER BY bounce");
+    let want: Vec<String> = reached.iter().map(|r| format!("({r},)")).collect();
+    assert_eq!(per_bounce, format!("[{}]", want.join(", ")));
+    // The sequences of the first three impacts, rebuilt per sample.
+    let seqs = query(
+        "SELECT count(*) AS n FROM (SELECT sample, list(planes ORDER BY bounce) AS seq \
+         FROM ROWS WHERE bounce <= 3 GROUP BY sample) GROUP BY seq ORDER BY n DESC",
+    );
+    let mut counts: Vec<u64> = drop["sequences"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["count"].as_u64().unwrap())
+        .collect();
+    counts.sort_unstable_by(|a, b| b.cmp(a));
+    let want: Vec<String> = counts.iter().map(|c| format!("({c},)")).collect();
+    assert_eq!(seqs, format!("[{}]", want.join(", ")));
+    eprintln!("{report}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -32,14 +32,6 @@ pub fn run(dir: &Path, format: Format) -> Result<(), Failure> {
     let head: ManifestHead = serde_json::from_value(manifest)
         .map_err(|e| Failure::bad_input(format!("{}: {e}", dir.join("manifest.json").display())))?;
     emit(&head.text(dir));
-    if summary["effects"]["flight"] == serde_json::Value::Bool(true) {
-        // A drop study: its summary has its own shape (per bounce).
-        emit(&format!(
-            "\n{}\n",
-            serde_json::to_string_pretty(&summary).expect("serialisable")
-        ));
-        return Ok(());
-    }
     let bad_summary = |e: serde_json::Error| Failure::bad_input(format!("summary.json: {e}"));
     let summaries: Vec<(String, Summary)> = match summary.get("points").and_then(|p| p.as_array()) {
         Some(points) => points

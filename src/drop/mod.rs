@@ -147,7 +147,8 @@ impl<'a> DropCtx<'a> {
             let start = start_of(self.scene, &self.sampler, &self.boxes, i);
             for (l, &law) in laws.iter().enumerate() {
                 let mut log = rows.as_deref_mut().map(|r| (r, i, l as u32));
-                firsts[l] = self.simulate(law, start, &mut acc.laws[l], &mut acc.drops[l], &mut log);
+                firsts[l] =
+                    self.simulate(law, start, &mut acc.laws[l], &mut acc.drops[l], &mut log);
             }
             if let Some(base) = firsts[0] {
                 for (pair, other) in acc.pairs.iter_mut().zip(&firsts[1..]) {

@@ -12,6 +12,6 @@ mod tables;
 
 pub use staging::{prepare_dir, OutputError, Staging};
 pub use tables::{
-    drop_frames, histograms_frame, schema_metadata, summary_frame, sweep_column, table_metadata, write_parquet,
-    DropAccs, LawAccs, PointValues,
+    drop_frames, histograms_frame, schema_metadata, summary_frame, sweep_column, table_metadata,
+    write_parquet, DropAccs, LawAccs, PointValues,
 };

@@ -426,14 +426,29 @@ impl SampleRows {
         for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
             put(v);
         }
-        for v in [o.energy_before, o.energy_after, o.energy_after / o.energy_before] {
+        for v in [
+            o.energy_before,
+            o.energy_after,
+            o.energy_after / o.energy_before,
+        ] {
             put(v);
         }
-        for v in o.after.velocity.to_array().into_iter().chain(o.after.omega.to_array()) {
+        for v in o
+            .after
+            .velocity
+            .to_array()
+            .into_iter()
+            .chain(o.after.omega.to_array())
+        {
             put(v);
         }
         for (c, &d) in o.contacts.iter().zip(r.distances) {
-            for v in [d, c.normal_velocity_before, c.normal_velocity_after, c.impulse] {
+            for v in [
+                d,
+                c.normal_velocity_before,
+                c.normal_velocity_after,
+                c.impulse,
+            ] {
                 put(v);
             }
         }

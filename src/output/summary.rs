@@ -483,7 +483,12 @@ impl Summary {
 fn drop_text(s: &mut String, d: &serde_json::Value) {
     use std::fmt::Write;
     let f = |k: &str| d.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-    let up = |k: &str| d["final_axis_up"].get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let up = |k: &str| {
+        d["final_axis_up"]
+            .get(k)
+            .and_then(|v| v.as_f64())
+            .unwrap_or(f64::NAN)
+    };
     let _ = writeln!(
         s,
         "  ended: flew away {:.4}, came to rest {:.4}, bounce limit {:.4}, unsolved {:.2e}, stalled {:.2e}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",

@@ -496,7 +496,9 @@ pub fn drop_frames(
         "simultaneity.parquet",
         "sequences.parquet",
     ];
-    let mut frames = out.into_iter().map(|dfs| stack_points(dfs.into_iter().map(Ok)));
+    let mut frames = out
+        .into_iter()
+        .map(|dfs| stack_points(dfs.into_iter().map(Ok)));
     let mut next = || frames.next().expect("four tables");
     Ok([
         (names[0], next()?),

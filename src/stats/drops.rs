@@ -170,7 +170,10 @@ impl DropAcc {
             f(&|| format!("{}.{}", prefix(), e.name()), Slot::Count(c));
         }
         for (k, c) in self.final_axis_up.iter_mut().enumerate() {
-            f(&|| format!("{}.final_axis_up.{k}", prefix()), Slot::Count(c));
+            f(
+                &|| format!("{}.final_axis_up.{k}", prefix()),
+                Slot::Count(c),
+            );
         }
         for (k, c) in self.sequences.iter_mut().enumerate() {
             f(&|| format!("{}.sequences.{k}", prefix()), Slot::Count(c));
