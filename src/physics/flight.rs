@@ -99,7 +99,17 @@ pub fn rk4_rotation(
     t: f64,
     max_step: f64,
 ) -> (DMat3, DVec3) {
-    let j = body.inertia();
+    rk4_inertia(body.inertia(), rotation, omega, t, max_step)
+}
+
+/// [`rk4_rotation`] for principal moments `j`.
+pub(crate) fn rk4_inertia(
+    j: DVec3,
+    rotation: DMat3,
+    omega: DVec3,
+    t: f64,
+    max_step: f64,
+) -> (DMat3, DVec3) {
     let steps = ((t.abs() / max_step).ceil() as u64).max(1);
     let h = t / steps as f64;
     let mut q = DQuat::from_mat3(&rotation);

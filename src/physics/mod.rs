@@ -13,6 +13,7 @@ mod lcp;
 mod linalg;
 mod plane;
 mod rotation;
+mod torque_free;
 
 pub use body::{BodyError, Ellipsoid};
 pub use compliant::{
@@ -29,3 +30,4 @@ pub use lcp::{solve_lcp, LcpSolution, ACCEPT_RELATIVE, FEASIBILITY_RELATIVE, MAX
 pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
 pub use plane::{Plane, PlaneError};
 pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};
+pub use torque_free::{carlson_rf, carlson_rj, Jacobi, TorqueFree};
