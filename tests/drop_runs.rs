@@ -44,8 +44,8 @@ fn derived_effect_sets_of_the_shipped_scenes() {
         ("corner3_sphere", false, false, false, "none", 1, "closed-form", None),
         ("sweep_aspect_ratio", true, false, false, "none", 1, "rotation", None),
         ("accuracy_corner3", true, true, false, "none", 1, "rotation+lcp", None),
-        ("drop_corner", true, true, true, "rk4", 5, "rotation+lcp", None),
-        ("drop_dice", true, false, true, "rk4", 20, "rotation", None),
+        ("drop_corner", true, true, true, "elliptic", 5, "rotation+lcp", None),
+        ("drop_dice", true, false, true, "elliptic", 20, "rotation", None),
     ];
     let mut shipped: Vec<String> = std::fs::read_dir(repo("configs"))
         .unwrap()
@@ -199,6 +199,14 @@ fn impossible_drop_scenes_are_refused_by_field() {
             ok.replace("energy_floor = 0.0", "energy_floor = 1.5"),
             "effects.energy_floor: must be in [0, 1), got 1.5",
         ),
+        (
+            ok.replace("[effects]\n", "[effects]\nflight_step = 1e-3\n"),
+            "effects.flight_step: flight_step is the RK4 step: it needs flight_rotation = \"rk4\"",
+        ),
+        (
+            ok.replace("[effects]\n", "[effects]\nflight_rotation = \"euler\"\n"),
+            "effects.flight_rotation: must be \"exact\" or \"rk4\", got \"euler\"",
+        ),
     ];
     for (text, want) in cases {
         let err = scene_text(&text, "bad").unwrap_err();
@@ -289,38 +297,70 @@ fn rel(a: f64, b: f64) -> f64 {
     }
 }
 
-/// Every number of `old` against `new` at the same path: counts (integers)
-/// exactly, floats to `tol` relative. Returns the paths compared.
-fn agree(old: &serde_json::Value, new: &serde_json::Value, path: &str, tol: f64) -> usize {
+/// Every number of `old` against `new` at the same path. A statistic
+/// (`{n, mean, ci95, sd, min, max}`): the mean within a tenth of its ci95,
+/// sd and ci95 to 3/√n relative (extremes are not compared); counts and
+/// fractions to 0.1 % (at least two samples in 20,000). Returns the values
+/// compared and the largest mean difference in units of its ci95.
+fn agree(old: &serde_json::Value, new: &serde_json::Value, path: &str) -> (usize, f64) {
     use serde_json::Value;
+    let fold = |it: &mut dyn Iterator<Item = (usize, f64)>| {
+        it.fold((0, 0f64), |(n, m), (k, x)| (n + k, m.max(x)))
+    };
+    let num = |v: &Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
     match (old, new) {
-        (Value::Object(a), Value::Object(b)) => a
-            .iter()
-            .map(|(k, v)| {
-                let w = b.get(k).unwrap_or_else(|| panic!("{path}.{k} is missing"));
-                agree(v, w, &format!("{path}.{k}"), tol)
-            })
-            .sum(),
+        (Value::Object(a), _) if a.contains_key("ci95") => {
+            let n = old["n"].as_u64().unwrap() as f64;
+            assert!((n - num(new, "n")).abs() <= 1e-3 * n + 1.0, "{path}.n");
+            if n < 2.0 {
+                return (1, 0.0);
+            }
+            let ci = num(old, "ci95");
+            let d = (num(old, "mean") - num(new, "mean")).abs();
+            assert!(
+                d <= 0.1 * ci + 1e-12,
+                "{path}.mean: {} vs {} (ci95 {ci})",
+                num(old, "mean"),
+                num(new, "mean")
+            );
+            // An sd's own Monte Carlo error is sd·√((κ − 1)/(4n)) for
+            // kurtosis κ: sd/√(2n) for normal data, several times that for
+            // the heavy-tailed intervals of late bounces.
+            for k in ["sd", "ci95"] {
+                let r = rel(num(old, k), num(new, k));
+                assert!(r <= 3.0 / n.sqrt(), "{path}.{k}: {r:e}");
+            }
+            // Extremes are single samples, which the later bounces of a
+            // rattling body (chaotic) move: not compared.
+            (4, if ci > 0.0 { d / ci } else { 0.0 })
+        }
+        (Value::Object(a), Value::Object(b)) => fold(&mut a.iter().map(|(k, v)| {
+            let w = b.get(k).unwrap_or_else(|| panic!("{path}.{k} is missing"));
+            agree(v, w, &format!("{path}.{k}"))
+        })),
         (Value::Array(a), Value::Array(b)) => {
             assert_eq!(a.len(), b.len(), "{path}: lengths");
-            a.iter()
-                .zip(b)
-                .enumerate()
-                .map(|(i, (v, w))| agree(v, w, &format!("{path}[{i}]"), tol))
-                .sum()
+            fold(
+                &mut a
+                    .iter()
+                    .zip(b)
+                    .enumerate()
+                    .map(|(i, (v, w))| agree(v, w, &format!("{path}[{i}]"))),
+            )
         }
         (Value::Number(a), Value::Number(b)) if a.is_u64() => {
-            assert_eq!(a, b, "{path}");
-            1
+            let (a, b) = (a.as_u64().unwrap() as f64, b.as_f64().unwrap());
+            assert!((a - b).abs() <= 1e-3 * a + 1.0, "{path}: {a} vs {b}");
+            (1, 0.0)
         }
         (Value::Number(a), Value::Number(b)) => {
             let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
-            assert!(rel(a, b) <= tol, "{path}: {a} vs {b}");
-            1
+            assert!((a - b).abs() <= 1e-3f64.max(1e-4), "{path}: {a} vs {b}");
+            (1, 0.0)
         }
         (a, b) => {
             assert_eq!(a, b, "{path}");
-            1
+            (1, 0.0)
         }
     }
 }
@@ -328,9 +368,11 @@ fn agree(old: &serde_json::Value, new: &serde_json::Value, path: &str, tol: f64)
 /// The engine's drop path against the scalar drop runner of impactmc 0.4.0:
 /// `tests/frozen/drops-0.4.0/*.json` are that version's summaries of 20,000
 /// samples of the shipped drop scenes (`impactmc run SCENE --samples 20000
-/// --format json`, timing removed), written by that binary. The per-sample
-/// physics is the same, so every count agrees exactly and every moment to
-/// rounding (the batches are merged in another order).
+/// --format json`, timing removed), written by that binary, which flew
+/// triaxial bodies with RK4 (steps 1e-2 s and 2e-4 s). The samples are the
+/// same (same draws), and the exact rotation differs from that RK4 by its
+/// error, which the later bounces of a rattling body amplify: every mean
+/// agrees within a tenth of its Monte Carlo ci95 (see [`agree`]).
 #[test]
 fn drop_statistics_agree_with_the_0_4_0_runner() {
     for name in ["drop_corner", "drop_dice"] {
@@ -345,12 +387,16 @@ fn drop_statistics_agree_with_the_0_4_0_runner() {
             },
         )
         .unwrap();
+        assert_eq!(s.effects().flight_rotation, "elliptic");
         let summary = serde_json::to_value(Summary::new(&s, &run_drop(&s, 2))).unwrap();
-        let mut compared = 0;
+        let (mut compared, mut worst) = (0, 0f64);
         for (law, want) in old["laws"].as_object().unwrap() {
-            compared += agree(want, &summary["drops"][law], law, 1e-12);
+            let (n, w) = agree(want, &summary["drops"][law], law);
+            compared += n;
+            worst = worst.max(w);
         }
         assert!(compared > 100, "{name}: only {compared} values compared");
+        eprintln!("{name}: {compared} values, largest mean difference {worst:.2e} ci95");
     }
 }
 

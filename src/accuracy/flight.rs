@@ -7,6 +7,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::config::Scene;
+use crate::physics::Rotation;
 
 use super::*;
 
@@ -14,9 +15,11 @@ use super::*;
 type FirstImpact = (f64, DVec3, DVec3, f64);
 
 /// The flight rungs of a drop scene: the first impact of `knobs.samples`
-/// samples with each RK4 step of flight rotation and each time-of-impact
-/// tolerance, against a reference ten times finer than the finest of both
-/// (the scene's law). Cost: one-thread ns per sample of the first impact.
+/// samples with RK4 rotation at each step, and with the exact rotation
+/// (elliptic, or precession for a = b) at each time-of-impact tolerance,
+/// against the exact rotation at a tolerance ten times finer than the
+/// finest (the scene's law). Cost: one-thread ns per sample of the first
+/// impact.
 pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)) -> Ladder {
     use crate::drop::{first_impact, start_of};
     let law = scene.laws()[0];
@@ -25,38 +28,34 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
     let starts: Vec<_> = (0..knobs.samples as u64)
         .map(|i| start_of(scene, &sampler, &boxes, i))
         .collect();
-    let fine_step = knobs
-        .flight_steps
-        .iter()
-        .cloned()
-        .fold(f64::INFINITY, f64::min)
-        / 10.0;
     let fine_tol = knobs
         .toi_tolerances
         .iter()
         .cloned()
         .fold(f64::INFINITY, f64::min)
         / 10.0;
-    let run = |step: f64, tol: f64| -> (Vec<Option<FirstImpact>>, f64) {
+    let run = |rotation: Rotation, tol: f64| -> (Vec<Option<FirstImpact>>, f64) {
         let timed = starts.len().min(200);
         let t0 = Instant::now();
         for s in &starts[..timed] {
-            std::hint::black_box(first_impact(scene, law, s, step, tol));
+            std::hint::black_box(first_impact(scene, law, s, rotation, tol));
         }
         let ns = t0.elapsed().as_secs_f64() * 1e9 / timed as f64;
         (
             starts
                 .par_iter()
-                .map(|s| first_impact(scene, law, s, step, tol))
+                .map(|s| first_impact(scene, law, s, rotation, tol))
                 .collect(),
             ns,
         )
     };
+    let exact = Rotation::exact_for(scene.body());
     progress(&format!(
-        "flight reference: step {fine_step:e} s, TOI tolerance {fine_tol:e} m, {} samples",
+        "flight reference: {} rotation, TOI tolerance {fine_tol:e} m, {} samples",
+        exact.name(),
         knobs.samples
     ));
-    let (reference, _) = run(fine_step, fine_tol);
+    let (reference, _) = run(exact, fine_tol);
     let compare = |got: &[Option<FirstImpact>]| -> (Errors, (f64, f64)) {
         let mut a = Vec::new();
         let mut b = Vec::new();
@@ -79,10 +78,9 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         (errors(&a, &b), rms_p99(dt))
     };
     let default_tol = scene.effects().toi_tolerance;
-    let default_step = scene.effects().flight_step;
     let mut rungs = Vec::new();
     for &step in &knobs.flight_steps {
-        let (got, ns) = run(step, default_tol);
+        let (got, ns) = run(Rotation::Rk4 { max_step: step }, default_tol);
         let (e, t) = compare(&got);
         progress(&format!(
             "flight step {step:e} s: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
@@ -90,7 +88,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         ));
         rungs.push(Rung {
             family: "flight_step".into(),
-            rung: format!("step {step:e} s"),
+            rung: format!("rk4 step {step:e} s"),
             precision: "f64".into(),
             ns_per_sample: ns,
             vs_compliant: Errors::NONE,
@@ -101,7 +99,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         });
     }
     for &tol in &knobs.toi_tolerances {
-        let (got, ns) = run(default_step, tol);
+        let (got, ns) = run(exact, tol);
         let (e, t) = compare(&got);
         progress(&format!(
             "TOI tolerance {tol:e} m: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
@@ -109,7 +107,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
         ));
         rungs.push(Rung {
             family: "toi_tolerance".into(),
-            rung: format!("toi {tol:e} m"),
+            rung: format!("{} toi {tol:e} m", exact.name()),
             precision: "f64".into(),
             ns_per_sample: ns,
             vs_compliant: Errors::NONE,

@@ -28,8 +28,9 @@ pub struct Effects {
     pub flight_step: f64,
     pub toi_tolerance: f64,
     pub horizon: f64,
-    /// Torque-free rotation in flight: "none", "precession" (exact, a = b)
-    /// or "rk4".
+    /// Torque-free rotation in flight: "none", "precession" (exact, a = b),
+    /// "elliptic" (exact, triaxial) or "rk4" (asked for, with
+    /// `flight_step`).
     pub flight_rotation: &'static str,
     /// Per-sample rows requested.
     pub per_sample: bool,
@@ -240,6 +241,28 @@ impl Effects {
             Some(f) => f,
             None => 1e-4,
         };
+        let rk4 = match e.flight_rotation.as_deref() {
+            None | Some("exact") => false,
+            Some("rk4") => true,
+            Some(other) => {
+                return Err(bad(
+                    &["effects", "flight_rotation"],
+                    format!("must be \"exact\" or \"rk4\", got {other:?}"),
+                ))
+            }
+        };
+        if !flight && e.flight_rotation.is_some() {
+            return Err(bad(
+                &["effects", "flight_rotation"],
+                "flight_rotation needs flight (placement.drop)",
+            ));
+        }
+        if !rk4 && e.flight_step.is_some() {
+            return Err(bad(
+                &["effects", "flight_step"],
+                "flight_step is the RK4 step: it needs flight_rotation = \"rk4\" (the default, \"exact\", has no step)",
+            ));
+        }
         let flight_step = positive(&["effects", "flight_step"], e.flight_step, 1e-3)?;
         let toi_tolerance = positive(
             &["effects", "toi_tolerance"],
@@ -282,8 +305,10 @@ impl Effects {
                 "none"
             } else if s.x == s.y {
                 "precession"
-            } else {
+            } else if rk4 {
                 "rk4"
+            } else {
+                "elliptic"
             },
             per_sample: raw.output.as_ref().is_some_and(|o| o.per_sample),
             statistics: Statistics::from_raw(raw.statistics.as_ref())?,

@@ -166,8 +166,11 @@ pub struct RawEffects {
     /// this fraction of the kinetic energy at the first impact (default
     /// 1e-4).
     pub energy_floor: Option<f64>,
-    /// Largest RK4 step of torque-free rotation for triaxial bodies (s;
-    /// axisymmetric bodies use the exact precession). Default 1e-3.
+    /// Torque-free rotation in flight: "exact" (default: regular
+    /// precession for a = b, the elliptic solution otherwise) or "rk4".
+    pub flight_rotation: Option<String>,
+    /// Largest RK4 step of torque-free rotation (s), with
+    /// `flight_rotation = "rk4"`. Default 1e-3.
     pub flight_step: Option<f64>,
     /// Time-of-impact tolerance (m): the advancement stops within it.
     /// Default: the contact tolerance.

@@ -65,17 +65,29 @@ enum Stop {
 }
 
 impl Flight {
-    /// The scene's flight with the given RK4 step and time-of-impact
+    /// The scene's flight with the given rotation and time-of-impact
     /// tolerance (a tolerance above the scene's contact tolerance widens it).
-    pub fn new(scene: &Scene, flight_step: f64, toi_tolerance: f64) -> Self {
+    pub fn new(scene: &Scene, rotation: Rotation, toi_tolerance: f64) -> Self {
         let fx = scene.effects();
         Self {
             planes: scene.planes().iter().map(|p| p.plane).collect(),
             gravity: DVec3::new(0.0, 0.0, -fx.gravity),
-            rotation: Rotation::for_body(scene.body(), flight_step),
+            rotation,
             toi_tolerance,
             horizon: fx.horizon,
             contact_tolerance: scene.tolerance().max(toi_tolerance),
+        }
+    }
+
+    /// The scene's own rotation in flight (`effects.flight_rotation`).
+    pub fn rotation_of(scene: &Scene) -> Rotation {
+        let fx = scene.effects();
+        if fx.flight_rotation == "rk4" {
+            Rotation::Rk4 {
+                max_step: fx.flight_step,
+            }
+        } else {
+            Rotation::exact_for(scene.body())
         }
     }
 
@@ -132,7 +144,7 @@ impl<'a> DropCtx<'a> {
             scene,
             sampler: Sampler::new(scene),
             boxes: crate::sampler::rng::drop_start_rng(scene.seed()),
-            flight: Flight::new(scene, fx.flight_step, fx.toi_tolerance),
+            flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
             quantiles: st.quantiles,
             by_set: st.by_active_set,
         }
@@ -368,8 +380,8 @@ fn second_smallest(d: &[f64]) -> Option<f64> {
     (d.len() > 1).then_some(b)
 }
 
-/// A sample's first impact with the given flight knobs (for the accuracy
-/// ladder): the time from release and the post-impact velocities and energy
+/// A sample's first impact with the given rotation in flight and
+/// time-of-impact tolerance (for the accuracy ladder): the time from release and the post-impact velocities and energy
 /// ratio. Planes within the larger of the contact and time-of-impact
 /// tolerances take part. `None` if nothing is hit within the horizon, the
 /// impact cannot be solved, or no plane takes an impulse.
@@ -377,10 +389,10 @@ pub fn first_impact(
     scene: &Scene,
     law: Law,
     start: &Motion,
-    flight_step: f64,
+    rotation: Rotation,
     toi_tolerance: f64,
 ) -> Option<(f64, DVec3, DVec3, f64)> {
-    let (hit, o) = Flight::new(scene, flight_step, toi_tolerance)
+    let (hit, o) = Flight::new(scene, rotation, toi_tolerance)
         .next(scene.body(), start, law)
         .ok()?;
     if o.contacts.iter().all(|c| c.impulse <= 0.0) {

@@ -8,11 +8,17 @@
 //!   `α = |L|/J₁`, `β = ω₃ − α l₃` (l = L in the body frame, unit),
 //!   because then `Ṙ = R [α l + β e₃]×` and `α l + β e₃` is the body
 //!   angular velocity of momentum L.
-//! - Triaxial bodies are integrated with classical RK4 on (q, ω) at a fixed
-//!   step (the knob); energy and angular momentum drift at fourth order.
+//! - Triaxial bodies follow the exact solution in Jacobi elliptic functions
+//!   ([`TorqueFree`]), or, when asked for, classical RK4 on (q, ω) at a
+//!   fixed step (energy and angular momentum drift at fourth order).
+//!
+//! With a closed form the time of impact jumps: every pose is evaluated from
+//! the flight's start, and the flight starts where the body's bounding
+//! sphere first comes within the tolerance of a plane.
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::torque_free::TorqueFree;
 use super::{ContactGeometry, Ellipsoid, Plane};
 
 /// Position, orientation and velocities of a body in flight.
@@ -32,18 +38,38 @@ pub struct Motion {
 pub enum Rotation {
     /// Exact regular precession (requires a = b).
     Precession,
+    /// The exact solution in Jacobi elliptic functions (any body).
+    Elliptic,
     /// RK4 on quaternion and ω with at most this step (s).
     Rk4 { max_step: f64 },
 }
 
 impl Rotation {
-    /// The exact closed form where the body allows it, else RK4.
-    pub fn for_body(body: &Ellipsoid, max_step: f64) -> Self {
+    /// The exact closed form for the body: regular precession for a = b,
+    /// the elliptic solution otherwise.
+    pub fn exact_for(body: &Ellipsoid) -> Self {
         let s = body.semi_axes();
         if s.x == s.y {
             Rotation::Precession
         } else {
-            Rotation::Rk4 { max_step }
+            Rotation::Elliptic
+        }
+    }
+
+    /// Regular precession for a = b, else RK4 with at most `max_step`.
+    pub fn for_body(body: &Ellipsoid, max_step: f64) -> Self {
+        match Self::exact_for(body) {
+            Rotation::Precession => Rotation::Precession,
+            _ => Rotation::Rk4 { max_step },
+        }
+    }
+
+    /// "precession", "elliptic" or "rk4".
+    pub fn name(self) -> &'static str {
+        match self {
+            Rotation::Precession => "precession",
+            Rotation::Elliptic => "elliptic",
+            Rotation::Rk4 { .. } => "rk4",
         }
     }
 }
@@ -136,6 +162,7 @@ pub(crate) fn rk4_inertia(
 pub fn advance(body: &Ellipsoid, m: &Motion, gravity: DVec3, rotation: Rotation, t: f64) -> Motion {
     let (r, w) = match rotation {
         Rotation::Precession => precess(body, m.rotation, m.omega, t),
+        Rotation::Elliptic => TorqueFree::new(body.inertia(), m.rotation, m.omega).at(t),
         Rotation::Rk4 { max_step } => rk4_rotation(body, m.rotation, m.omega, t, max_step),
     };
     Motion {
@@ -184,8 +211,28 @@ pub fn time_of_impact(
     let j_spread = (j.max_element() - j.min_element()) / j.min_element();
     let w2 = w_bound * w_bound;
     let curvature = w2 * a_max * a_max / a_min + a_max * (w2 + w2 * j_spread);
+    // A closed form evaluates every pose from the start; RK4 steps on from
+    // the last pose.
+    let elliptic = (rotation == Rotation::Elliptic)
+        .then(|| TorqueFree::new(body.inertia(), start.rotation, start.omega));
+    let closed = !matches!(rotation, Rotation::Rk4 { .. });
+    let pose_at = |t: f64| -> Motion {
+        let (r, w) = match &elliptic {
+            Some(tf) => tf.at(t),
+            None => precess(body, start.rotation, start.omega, t),
+        };
+        Motion {
+            centre: start.centre + start.velocity * t + gravity * (0.5 * t * t),
+            rotation: r,
+            velocity: start.velocity + gravity * t,
+            omega: w,
+        }
+    };
     let mut t = 0.0;
-    let mut m = *start;
+    if closed {
+        t = sphere_clearance(reach, start, planes, gravity, tolerance).min(horizon);
+    }
+    let mut m = if t > 0.0 { pose_at(t) } else { *start };
     // A plane the body starts on and leaves (just after an impact) is not an
     // impact; it is armed again once clear of the tolerance, and an impact
     // if it turns back toward the body while still within it.
@@ -231,12 +278,20 @@ pub fn time_of_impact(
             };
             // Second bound, from the gap's actual rate ḋ = v_n (the support
             // point's normal velocity) and a bound on its second derivative:
-            // d(t+τ) ≥ d − c τ − ½ B τ². Near contact it converges like
-            // Newton's method. Either bound alone is safe, so the larger
-            // step is.
-            let c = (-g.normal_velocity(p, m.velocity, m.omega)).max(0.0);
+            // d(t+τ) ≥ d − c τ − ½ B τ² with c = −ḋ of either sign (a plane
+            // the body is leaving allows the time it takes to turn back).
+            // Near contact it converges like Newton's method. Either bound
+            // alone is safe, so the larger step is.
+            let c = -g.normal_velocity(p, m.velocity, m.omega);
             let b = acc + curvature;
-            let quadratic = 2.0 * gap / (c + (c * c + 2.0 * b * gap).sqrt());
+            let root = (c * c + 2.0 * b * gap).sqrt();
+            let quadratic = if c >= 0.0 {
+                2.0 * gap / (c + root)
+            } else if b > 0.0 {
+                (root - c) / b
+            } else {
+                f64::INFINITY
+            };
             dt = dt.min(linear.max(quadratic));
         }
         if hit {
@@ -254,8 +309,61 @@ pub fn time_of_impact(
             return None;
         }
         let dt = dt.min(horizon - t).max(0.0);
-        m = advance(body, &m, gravity, rotation, dt);
-        t += dt;
+        if closed {
+            t += dt;
+            m = pose_at(t);
+        } else {
+            m = advance(body, &m, gravity, rotation, dt);
+            t += dt;
+        }
     }
     None
+}
+
+/// The first time the body's bounding sphere (radius `reach` about the
+/// centre) comes within `tolerance` of some plane: before it no plane can be
+/// within the tolerance, whatever the rotation. Zero if the sphere is that
+/// close at the start; infinite if it never is.
+fn sphere_clearance(
+    reach: f64,
+    start: &Motion,
+    planes: &[Plane],
+    gravity: DVec3,
+    tolerance: f64,
+) -> f64 {
+    let mut first = f64::INFINITY;
+    for p in planes {
+        let n = p.normal();
+        // Gap of the sphere: g(t) = g0 + v t + ½ a t², first root g = 0.
+        let g0 = p.signed_distance(start.centre) - reach - tolerance;
+        if g0 <= 0.0 {
+            return 0.0;
+        }
+        let v = n.dot(start.velocity);
+        let a = n.dot(gravity);
+        let root = if a == 0.0 {
+            if v < 0.0 {
+                -g0 / v
+            } else {
+                f64::INFINITY
+            }
+        } else {
+            // ½a t² + v t + g0 = 0: the smallest positive root, from the
+            // two forms without cancellation.
+            let disc = v * v - 2.0 * a * g0;
+            if disc < 0.0 {
+                f64::INFINITY
+            } else {
+                let sign = if v >= 0.0 { 1.0 } else { -1.0 };
+                let q = -0.5 * (v + sign * disc.sqrt());
+                [q / (0.5 * a), g0 / q]
+                    .into_iter()
+                    .filter(|r| *r > 0.0 && r.is_finite())
+                    .fold(f64::INFINITY, f64::min)
+            }
+        };
+        // Rounding: stop a little early (the advancement finishes the way).
+        first = first.min(root * (1.0 - 1e-12));
+    }
+    first
 }
