@@ -385,8 +385,8 @@ pub fn spin_bound(j: DVec3, omega: DVec3) -> f64 {
     for (a, b) in [(0, 1), (0, 2), (1, 2)] {
         let det = j[a] * j[b] * (j[b] - j[a]);
         if det == 0.0 {
-            // Equal moments: the energy bound covers this pair.
-            best = best.max(energy);
+            // Equal moments act as one variable, which the other pairs
+            // cover (a sphere keeps |ω|).
             continue;
         }
         let xa = (two_t * j[b] * j[b] - m2 * j[b]) / det;
