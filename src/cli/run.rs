@@ -39,7 +39,8 @@ pub struct RunArgs {
     /// Overwrite an output folder that already holds a run.
     #[arg(long)]
     force: bool,
-    /// Also write samples.parquet, one row per sample (streamed).
+    /// Also write samples.parquet, one row per sample (a drop scene: per
+    /// sample, law and impact; streamed).
     #[arg(long)]
     per_sample: bool,
     /// Per-sample columns to keep, comma-separated (default: all).
