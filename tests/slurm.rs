@@ -2,7 +2,8 @@
 //! sharded study (a job array and a merge job behind `afterok`), and the
 //! merged summary equals a single run's bit for bit. Then one task fails on
 //! purpose: the merge job must not start; the task is re-run alone, the
-//! merge is run, and the summary is exact again.
+//! merge is run, and the summary is exact again. A drop scene's shards
+//! merge exactly through the same job files.
 //!
 //! Needs a reachable Slurm (`sinfo`); `deploy/slurm/local-cluster.sh start`
 //! makes one on this machine. Without one the test is skipped, unless
@@ -63,18 +64,29 @@ fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
     }
 }
 
-/// Submits the study with `submit.sh`; returns the (array, merge) job ids.
+/// Submits the corner3 study with `submit.sh`; returns the (array, merge)
+/// job ids.
 fn submit(work: &Path, out: &Path, fail: Option<u32>) -> (String, String) {
+    submit_scene(work, out, fail, "configs/corner3.toml", SAMPLES)
+}
+
+fn submit_scene(
+    work: &Path,
+    out: &Path,
+    fail: Option<u32>,
+    scene: &str,
+    samples: &str,
+) -> (String, String) {
     let mut c = Command::new("bash");
     c.arg(repo("deploy/slurm/submit.sh"))
         .current_dir(work)
-        .env("SCENE", repo("configs/corner3.toml"))
+        .env("SCENE", repo(scene))
         .env("SHARDS", SHARDS.to_string())
         .env("OUT", out)
         .env("CPUS_PER_TASK", "1")
         .env("TIME_LIMIT", "00:10:00")
         .env("IMPACTMC", env!("CARGO_BIN_EXE_impactmc"))
-        .env("EXTRA_ARGS", format!("--samples {SAMPLES}"));
+        .env("EXTRA_ARGS", format!("--samples {samples}"));
     match fail {
         Some(i) => c.env("IMPACTMC_FAIL_SHARD", i.to_string()),
         None => c.env_remove("IMPACTMC_FAIL_SHARD"),
@@ -177,5 +189,39 @@ fn sharded_study_on_a_real_slurm_cluster() {
         summary(&bad.join("merged")),
         want,
         "merged after a re-run shard"
+    );
+}
+
+/// A drop scene through the same job files: 8 shards of drop_corner
+/// (10 batches of 4,096 samples) merged by the merge job equal a single
+/// run, bounces and sequences included.
+#[test]
+fn sharded_drop_study_on_a_real_slurm_cluster() {
+    if !support::available_or_skip(
+        slurm_reachable(),
+        "IMPACTMC_REQUIRE_SLURM",
+        "a Slurm cluster (sinfo failed)",
+        "bash deploy/slurm/local-cluster.sh start makes one",
+    ) {
+        return;
+    }
+    let samples = "40000";
+    let d = tmpdir("slurm-drop");
+    let single = d.join("single");
+    let o = bin()
+        .args(["run", repo("configs/drop_corner.toml").to_str().unwrap()])
+        .args(["--samples", samples, "--out", single.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let want = summary(&single);
+    assert_eq!(want["drops"]["newton"]["samples"], 40000);
+    let ok = d.join("ok");
+    let (_, merge) = submit_scene(&d, &ok, None, "configs/drop_corner.toml", samples);
+    wait_for("the drop merge job", || state(&merge).is_none());
+    assert_eq!(
+        summary(&ok.join("merged")),
+        want,
+        "merged Slurm drop study against the single run"
     );
 }
