@@ -68,9 +68,6 @@ pub struct Study {
 pub enum StudyError {
     #[error(transparent)]
     Scene(#[from] SceneError),
-    /// A request this kind of scene cannot serve (e.g. a sweep of a drop).
-    #[error("{0}")]
-    Unsupported(String),
     #[error(transparent)]
     Run(#[from] RunError),
     #[error(transparent)]

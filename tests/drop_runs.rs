@@ -593,3 +593,32 @@ fn per_impact_rows_add_up_to_the_summary() {
         );
     }
 }
+
+/// `--columns` on a drop scene keeps the keys `sample` and `law` and the
+/// named columns, in engine order.
+#[test]
+fn per_impact_columns_can_be_chosen() {
+    use polars::prelude::*;
+    let out = scratch("drop-columns");
+    run_cli(
+        &repo("configs/drop_corner.toml"),
+        &out,
+        &[
+            "--samples",
+            "500",
+            "--per-sample",
+            "--columns",
+            "law,energy_ratio,bounce",
+        ],
+    );
+    let df = ParquetReader::new(std::fs::File::open(out.join("samples.parquet")).unwrap())
+        .finish()
+        .unwrap();
+    let names: Vec<String> = df
+        .get_column_names()
+        .iter()
+        .map(|c| c.to_string())
+        .collect();
+    assert_eq!(names, ["sample", "law", "energy_ratio", "bounce"]);
+    assert!(df.height() >= 500);
+}

@@ -61,9 +61,7 @@ impl From<StudyError> for Failure {
     fn from(e: StudyError) -> Self {
         let message = chain(&e);
         match e {
-            StudyError::Scene(_) | StudyError::Merge(_) | StudyError::Unsupported(_) => {
-                Self::bad_input(message)
-            }
+            StudyError::Scene(_) | StudyError::Merge(_) => Self::bad_input(message),
             StudyError::Output(OutputError::Exists(_)) => Self::bad_input(message),
             StudyError::Run(_) | StudyError::Output(_) => Self::failed(message),
         }

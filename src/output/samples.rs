@@ -69,8 +69,16 @@ impl Selection {
     /// scene's `law` column.
     pub fn of_scene(scene: &Scene, wanted: Option<&[String]>) -> Result<Self, String> {
         let (floats, ints) = sample_columns(scene);
-        let mut s = Self::new(floats, ints, wanted)?;
-        if scene.drop_box().is_some() {
+        let drop = scene.drop_box().is_some();
+        // `law`, like `sample`, is a key of a drop scene's rows: always kept.
+        let wanted: Option<Vec<String>> = wanted.map(|w| {
+            w.iter()
+                .filter(|c| !(drop && *c == "law"))
+                .cloned()
+                .collect()
+        });
+        let mut s = Self::new(floats, ints, wanted.as_deref())?;
+        if drop {
             s.laws = scene.laws().iter().map(|l| l.name()).collect();
         }
         Ok(s)
