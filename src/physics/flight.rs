@@ -188,8 +188,10 @@ pub struct Impact {
 /// The first time within `horizon` at which some plane's distance falls to
 /// `tolerance` (m), by conservative advancement: each step is the smallest
 /// distance divided by a bound on how fast any distance can shrink
-/// (|v·n| plus gravity over the step plus |ω| times the largest semi-axis),
-/// so no step passes a contact. `None` if no contact within the horizon.
+/// (|v·n| plus gravity over the step plus |ω|(a − c)), or by a second-order
+/// bound from the actual rate, so no step passes a contact. With a closed-form
+/// rotation the search starts where the bounding sphere first comes within
+/// `tolerance` of a plane. `None` if no contact within the horizon.
 pub fn time_of_impact(
     body: &Ellipsoid,
     start: &Motion,

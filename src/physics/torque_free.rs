@@ -61,53 +61,9 @@ pub fn carlson_rc(x: f64, y: f64) -> f64 {
 }
 
 /// Carlson's R_J(x, y, z, p) for x, y, z ≥ 0 (at most one zero) and p > 0,
-/// by duplication to a relative error of about 1e-16.
+/// by duplication to a relative error of about 1e-16 ([`carlson_rf_rj`]).
 pub fn carlson_rj(x: f64, y: f64, z: f64, p: f64) -> f64 {
-    const ERRTOL: f64 = 0.0015;
-    const C1: f64 = 3.0 / 14.0;
-    const C2: f64 = 1.0 / 3.0;
-    const C3: f64 = 3.0 / 22.0;
-    const C4: f64 = 3.0 / 26.0;
-    const C5: f64 = 0.75 * C3;
-    const C6: f64 = 1.5 * C4;
-    const C7: f64 = 0.5 * C2;
-    const C8: f64 = C3 + C3;
-    let (mut x, mut y, mut z, mut p) = (x, y, z, p);
-    let (mut sum, mut fac) = (0.0, 1.0);
-    loop {
-        let (sx, sy, sz) = (x.sqrt(), y.sqrt(), z.sqrt());
-        let lambda = sx * (sy + sz) + sy * sz;
-        let alpha = (p * (sx + sy + sz) + sx * sy * sz).powi(2);
-        let beta = p * (p + lambda).powi(2);
-        sum += fac * carlson_rc(alpha, beta);
-        fac *= 0.25;
-        x = 0.25 * (x + lambda);
-        y = 0.25 * (y + lambda);
-        z = 0.25 * (z + lambda);
-        p = 0.25 * (p + lambda);
-        let ave = 0.2 * (x + y + z + p + p);
-        let (dx, dy, dz, dp) = (
-            (ave - x) / ave,
-            (ave - y) / ave,
-            (ave - z) / ave,
-            (ave - p) / ave,
-        );
-        if dx.abs().max(dy.abs()).max(dz.abs()).max(dp.abs()) <= ERRTOL {
-            let ea = dx * (dy + dz) + dy * dz;
-            let eb = dx * dy * dz;
-            let ec = dp * dp;
-            let ed = ea - 3.0 * ec;
-            let ee = eb + 2.0 * dp * (ea - ec);
-            return 3.0 * sum
-                + fac
-                    * (1.0
-                        + ed * (-C1 + C5 * ed - C6 * ee)
-                        + eb * (C7 + dp * (-C8 + dp * C4))
-                        + dp * ea * (C2 - dp * C3)
-                        - C2 * dp * ec)
-                    / (ave * ave.sqrt());
-        }
-    }
+    carlson_rf_rj(x, y, z, p).1
 }
 
 /// R_F(x, y, z) and R_J(x, y, z, p) together: the two duplications share
