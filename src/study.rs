@@ -15,9 +15,9 @@ use crate::config::{Keep, RawScene};
 use crate::config::{Overrides, Scene, SceneError};
 use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
 use crate::kernel::KernelVariant;
-use crate::output::manifest::{Manifest, MergeInfo, ShardRef, Timing};
-use crate::output::samples::SampleRows;
-use crate::output::samples::{SamplesWriter, Selection};
+use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
+use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
+use crate::output::samples::{SampleRows, Selection};
 use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
 use crate::output::summary::Summary;
 use crate::output::{
@@ -55,8 +55,8 @@ pub struct Study {
     pub points: Vec<PointRun>,
     pub started: SystemTime,
     pub finished: SystemTime,
-    /// Rows written to samples.parquet, when asked for.
-    pub sample_rows: Option<u64>,
+    /// What samples.parquet holds, when asked for.
+    pub per_sample: Option<PerSample>,
     /// Set for a shard run: the folder then also holds the shard state.
     pub shard: Option<Shard>,
     /// Set for a merge of shards.
@@ -93,40 +93,64 @@ pub fn run_study(
     overrides.apply(&mut raw);
     let mut staging = Staging::new(dir);
     // Every default explicit in the manifest.
-    let output = raw.output.get_or_insert_with(Default::default).clone();
-    let mut writer =
-        if output.per_sample {
-            let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
-                .map_err(|m| SceneError {
-                    file: file.clone(),
-                    line: crate::config::line_of(&text, &["output", "columns"]),
-                    field: "output.columns".into(),
-                    message: m,
-                })?;
-            Some(SamplesWriter::new(
-                staging.create("samples.parquet")?,
-                selection,
-            ))
-        } else {
-            None
+    let output = raw.output.get_or_insert_with(Default::default);
+    let field_error = |field: &str, message: String| SceneError {
+        file: file.clone(),
+        line: crate::config::line_of(&text, &["output", field]),
+        field: format!("output.{field}"),
+        message,
+    };
+    let compression = Compression::new(output.compression.as_deref(), output.level)
+        .map_err(|(field, m)| field_error(field, m))?;
+    output.compression = Some(compression.name().into());
+    output.level = compression.level();
+    let output = output.clone();
+    let mut writer = if output.per_sample {
+        let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
+            .map_err(|m| field_error("columns", m))?;
+        let precision = selection.precision();
+        let threads = match opts.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
         };
+        let w = SamplesWriter::new(
+            staging.create("samples.parquet")?,
+            selection,
+            WriteOptions {
+                compression,
+                threads,
+                sweep: !axes.is_empty(),
+            },
+        )
+        .map_err(|e| RunError::Sink(Box::new(e)))?;
+        Some((w, precision))
+    } else {
+        None
+    };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();
     for (i, p) in points.into_iter().enumerate() {
         let result = match writer.as_mut() {
             None => run_with_samples(&p.scene, opts, None)?,
-            Some(w) => {
-                let parquet = |e: polars::prelude::PolarsError| RunError::Sink(Box::new(e));
-                w.set_point(sweep.then_some(i as u32)).map_err(parquet)?;
+            Some((w, _)) => {
+                w.set_point(sweep.then_some(i as u32))
+                    .map_err(|e| RunError::Sink(Box::new(e)))?;
                 let mut sink = |rows: SampleRows| w.push(rows).map_err(SinkError::from);
                 run_with_samples(&p.scene, opts, Some(&mut sink))?
             }
         };
         runs.push(PointRun::new(p.values, p.scene, result));
     }
-    let sample_rows = match writer {
-        Some(w) => Some(w.finish().map_err(|e| RunError::Sink(Box::new(e)))?),
+    let per_sample = match writer {
+        Some((w, precision)) => Some(PerSample {
+            rows: w.finish().map_err(|e| RunError::Sink(Box::new(e)))?,
+            floats: precision.name(),
+            float_encoding: crate::output::parquet::FLOAT_ENCODING,
+            compression: compression.name(),
+            level: compression.level(),
+            row_group_rows: crate::output::parquet::ROW_GROUP,
+        }),
         None => None,
     };
     Ok(Study {
@@ -135,7 +159,7 @@ pub fn run_study(
         points: runs,
         started,
         finished: SystemTime::now(),
-        sample_rows,
+        per_sample,
         shard: opts.shard,
         merge: None,
         staging,
@@ -214,7 +238,7 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
         points: runs,
         started,
         finished: SystemTime::now(),
-        sample_rows: None,
+        per_sample: None,
         shard: None,
         merge: Some(merge),
         staging: Staging::new(dir),
@@ -391,7 +415,7 @@ impl Study {
                 batch_end: range.end,
             });
         }
-        if self.sample_rows.is_some() {
+        if self.per_sample.is_some() {
             files.push("samples.parquet".into());
         }
         let timing = Timing {
@@ -404,6 +428,7 @@ impl Study {
         let scene = &self.points[0].scene;
         let mut manifest = Manifest::new(&self.raw, scene.effects(), self.points.len(), timing);
         manifest.files = files;
+        manifest.per_sample = self.per_sample.clone();
         manifest.shard = shard_ref;
         manifest.merge = self.merge.clone();
         staging.write_json("manifest.json", &manifest)?;

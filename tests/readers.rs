@@ -256,3 +256,178 @@ fn python_readers_rebuild_drop_sequences_from_per_impact_rows() {
     eprintln!("{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Every per-sample column of an f32 run, read back by pyarrow, DuckDB and
+/// polars, holds exactly what the kernel computed for that sample
+/// (`evaluate_samples`, which does not go through the writer), in its
+/// native type (f32 floats, u8 active sets, u16 flags, u64 samples), under
+/// each codec; the quaternion matches the kernel's rotation matrix.
+#[test]
+fn python_readers_read_back_exactly_what_the_run_computed() {
+    use impactmc::config::{load_scene, Overrides};
+    use impactmc::engine::evaluate_samples;
+    use serde_json::{json, Map, Value};
+    if !support::available_or_skip(
+        readers_available(),
+        "IMPACTMC_REQUIRE_READERS",
+        "pyarrow, duckdb and polars",
+        "pip install -r .ci/requirements-readers.txt",
+    ) {
+        return;
+    }
+    let samples = 3000usize;
+    let scene_path = repo("configs/corner3.toml");
+    let scene = load_scene(
+        &scene_path,
+        &Overrides {
+            samples: Some(samples as u64),
+            precision: Some("f32".parse().unwrap()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let planes: Vec<String> = scene
+        .touching()
+        .iter()
+        .map(|&i| scene.planes()[i].name.clone())
+        .collect();
+    let mut cols = Map::new();
+    let mut put = |name: String, ty: &str, values: Vec<Value>| {
+        cols.insert(name, json!({"type": ty, "values": values}));
+    };
+    let f = |x: f64| json!(x);
+    put(
+        "sample".into(),
+        "uint64",
+        (0..samples as u64).map(|i| json!(i)).collect(),
+    );
+    let mut rotation = Vec::new();
+    for (l, &law) in scene.laws().iter().enumerate() {
+        let name = law.name();
+        let outs = evaluate_samples(&scene, law, 0, samples);
+        if l == 0 {
+            for (k, c) in ["x", "y", "z"].iter().enumerate() {
+                put(
+                    format!("v_{c}"),
+                    "float32",
+                    outs.iter().map(|o| f(o.velocity[k])).collect(),
+                );
+                put(
+                    format!("omega_{c}"),
+                    "float32",
+                    outs.iter().map(|o| f(o.omega[k])).collect(),
+                );
+            }
+            put(
+                "energy_before".into(),
+                "float32",
+                outs.iter().map(|o| f(o.energy_before)).collect(),
+            );
+            for (i, p) in planes.iter().enumerate() {
+                put(
+                    format!("vn_before_{p}"),
+                    "float32",
+                    outs.iter().map(|o| f(o.vn_before[i])).collect(),
+                );
+            }
+            rotation = outs.iter().map(|o| json!(o.rotation)).collect();
+        }
+        put(
+            format!("energy_after_{name}"),
+            "float32",
+            outs.iter().map(|o| f(o.energy_after)).collect(),
+        );
+        // The f32 quotient of the two f32 energies.
+        put(
+            format!("energy_ratio_{name}"),
+            "float32",
+            outs.iter()
+                .map(|o| f((o.energy_after as f32 / o.energy_before as f32) as f64))
+                .collect(),
+        );
+        for (k, c) in ["x", "y", "z"].iter().enumerate() {
+            put(
+                format!("v_after_{c}_{name}"),
+                "float32",
+                outs.iter().map(|o| f(o.velocity_after[k])).collect(),
+            );
+            put(
+                format!("omega_after_{c}_{name}"),
+                "float32",
+                outs.iter().map(|o| f(o.omega_after[k])).collect(),
+            );
+        }
+        for (i, p) in planes.iter().enumerate() {
+            put(
+                format!("impulse_{name}_{p}"),
+                "float32",
+                outs.iter().map(|o| f(o.impulses[i])).collect(),
+            );
+            put(
+                format!("vn_after_{name}_{p}"),
+                "float32",
+                outs.iter().map(|o| f(o.vn_after[i])).collect(),
+            );
+        }
+        put(
+            format!("active_{name}"),
+            "uint8",
+            outs.iter().map(|o| json!((o.status >> 4) & 7)).collect(),
+        );
+        put(
+            format!("flags_{name}"),
+            "uint16",
+            outs.iter().map(|o| json!(o.status)).collect(),
+        );
+    }
+    let expected = json!({"columns": cols, "rotation": rotation, "tolerance": 1e-6});
+    for codec in ["zstd", "lz4", "none"] {
+        let dir = scratch(&format!("values-{codec}"));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let text = std::fs::read_to_string(&scene_path).unwrap()
+            + &format!("\n[output]\nper_sample = true\ncompression = \"{codec}\"\n");
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, text).unwrap();
+        let out = bin()
+            .arg("run")
+            .arg(&path)
+            .args([
+                "--samples",
+                &samples.to_string(),
+                "--precision",
+                "f32",
+                "--out",
+            ])
+            .arg(dir.join("run"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let manifest: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("run/manifest.json")).unwrap())
+                .unwrap();
+        assert_eq!(manifest["per_sample"]["floats"], "f32");
+        assert_eq!(manifest["per_sample"]["compression"], codec);
+        assert_eq!(manifest["per_sample"]["rows"], samples);
+        let exp_path = dir.join("expected.json");
+        std::fs::write(&exp_path, expected.to_string()).unwrap();
+        let check = Command::new("python3")
+            .arg(repo("tests/python/check_values.py"))
+            .arg(dir.join("run/samples.parquet"))
+            .arg(&exp_path)
+            .output()
+            .unwrap();
+        let report = String::from_utf8_lossy(&check.stdout);
+        assert!(
+            check.status.success(),
+            "{codec}: {report}{}",
+            String::from_utf8_lossy(&check.stderr)
+        );
+        eprintln!("{codec}: {report}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

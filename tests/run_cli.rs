@@ -50,6 +50,9 @@ fn scene_errors_name_file_line_field_and_value() {
         ("sd = [0.5, 0.5, 0.5]", "sd = [0.5, -0.5, 0.5]", "velocity.sd: must be ≥ 0, got [0.5, -0.5, 0.5]"),
         ("precision = \"f32\"", "precision = \"f16\"", "precision: must be \"f32\" or \"f64\", got \"f16\""),
         ("distribution = \"uniform\"", "distribution = \"isotropic\"", "unknown variant `isotropic`"),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"gzip\"", ":46: output.compression: \"gzip\" is not one of \"zstd\", \"lz4\", \"none\""),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\nlevel = 0", "output.level: zstd levels are 1..=22, got 0"),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"lz4\"\nlevel = 3", "output.level: a level applies to zstd only, got 3 with lz4"),
     ];
     for (from, to, want) in cases {
         let text = base.replacen(from, to, 1);
@@ -273,4 +276,42 @@ fn a_killed_run_leaves_no_file_that_looks_complete() {
         names(&out_dir)
     );
     std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `samples.parquet` is the same file byte for byte for one and two threads
+/// (row groups are encoded in parallel and written in order): a contact
+/// scene over several row groups, and a drop scene, whose batches hold
+/// varying numbers of rows.
+#[test]
+fn samples_file_is_the_same_for_any_thread_count() {
+    let d = tmpdir("threads-file");
+    for (scene, samples) in [("corner3", "600000"), ("drop_corner", "3000")] {
+        let file = |threads: &str| {
+            let out_dir = d.join(format!("{scene}-{threads}"));
+            let out = bin()
+                .arg("run")
+                .arg(repo(&format!("configs/{scene}.toml")))
+                .args([
+                    "--samples",
+                    samples,
+                    "--per-sample",
+                    "--threads",
+                    threads,
+                    "--out",
+                ])
+                .arg(&out_dir)
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            std::fs::read(out_dir.join("samples.parquet")).unwrap()
+        };
+        let (one, two) = (file("1"), file("2"));
+        assert!(one.len() > 1000, "{scene}: {} bytes", one.len());
+        assert!(one == two, "{scene}: the files differ for 1 and 2 threads");
+    }
+    std::fs::remove_dir_all(d).unwrap();
 }

@@ -108,6 +108,12 @@ pub struct RawOutput {
     /// Per-sample columns to keep (default: all; `sample` always).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub columns: Option<Vec<String>>,
+    /// Codec of `samples.parquet`: "zstd" (default), "lz4" or "none".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compression: Option<String>,
+    /// zstd level, 1..=22 (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<i32>,
 }
 
 fn default_precision() -> String {

@@ -20,6 +20,10 @@ pub struct SampleOutcome {
     pub omega: [f64; 3],
     /// Impulse per touching plane (scene order).
     pub impulses: Vec<f64>,
+    /// Normal velocity of the contact point per touching plane, before and
+    /// after the impact (m/s).
+    pub vn_before: Vec<f64>,
+    pub vn_after: Vec<f64>,
     pub velocity_after: [f64; 3],
     pub omega_after: [f64; 3],
     pub energy_before: f64,
@@ -61,6 +65,8 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 velocity: f(&x.v),
                 omega: f(&x.w),
                 impulses: (0..N).map(|i| o.lambda[i][s].to_f64()).collect(),
+                vn_before: (0..N).map(|i| work.geo.vn[i][s].to_f64()).collect(),
+                vn_after: (0..N).map(|i| o.vn_after[i][s].to_f64()).collect(),
                 velocity_after: f(&o.v_after),
                 omega_after: f(&o.w_after),
                 energy_before: work.geo.t_before[s].to_f64(),

@@ -26,7 +26,7 @@ use crate::kernel::{Consts, KernelVariant};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::output::manifest::process_cpu_seconds;
-use crate::output::samples::{sample_columns, SampleRows};
+use crate::output::samples::SampleRows;
 use crate::sampler::{Sampler, ALL_ROWS};
 use crate::stats::accumulators::{RunAcc, Shape};
 use crate::stats::block::StatsPlan;
@@ -106,10 +106,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
-    let (nf, ni) = {
-        let (f, i) = sample_columns(scene);
-        (f.len(), i.len())
-    };
+    let empty_rows = SampleRows::of_scene(scene);
     let want_rows = sink.is_some();
     let ctx = Ctx {
         scene,
@@ -123,9 +120,13 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
         let mut work = pool.take(|| Work::new(laws));
         let mut part = accs.take(|| RunAcc::new(laws, N));
-        let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
         let lo = b * batch;
         let hi = (lo + batch).min(total);
+        let mut rows = want_rows.then(|| {
+            let mut r = empty_rows.clone();
+            r.reserve((hi - lo) as usize);
+            r
+        });
         let mut first = lo;
         while first < hi {
             let count = ((hi - first) as usize).min(BLOCK);
@@ -153,15 +154,12 @@ fn run_drops(
     let shape = Shape::of(scene);
     let batch = scene.batch_size();
     let total = scene.samples();
-    let (nf, ni) = {
-        let (f, i) = sample_columns(scene);
-        (f.len(), i.len())
-    };
+    let empty_rows = SampleRows::of_scene(scene);
     let want_rows = sink.is_some();
     let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
         let mut part = accs.take(|| RunAcc::shaped(shape));
-        let mut rows = want_rows.then(|| SampleRows::new(nf, ni));
+        let mut rows = want_rows.then(|| empty_rows.clone());
         let lo = b * batch;
         let hi = (lo + batch).min(total);
         ctx.run(lo, hi - lo, &mut part, rows.as_mut());

@@ -59,6 +59,9 @@ pub struct Manifest {
     pub threads: usize,
     pub machine: Machine,
     pub files: Vec<String>,
+    /// What `samples.parquet` holds, when written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_sample: Option<PerSample>,
     /// The effects simulated, declared and derived ([`crate::config::Effects`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effects: Option<crate::config::Effects>,
@@ -100,11 +103,26 @@ impl Manifest {
             threads: timing.threads,
             machine: Machine::current(),
             files: Vec::new(),
+            per_sample: None,
             effects: Some(effects.clone()),
             shard: None,
             merge: None,
         }
     }
+}
+
+/// How `samples.parquet` was written.
+#[derive(Debug, Clone, Serialize)]
+pub struct PerSample {
+    pub rows: u64,
+    /// The float columns' type: the run's precision ("f32" or "f64").
+    pub floats: &'static str,
+    /// The float columns' Parquet encoding.
+    pub float_encoding: &'static str,
+    pub compression: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub level: Option<i32>,
+    pub row_group_rows: usize,
 }
 
 #[derive(Debug, Clone, Serialize)]

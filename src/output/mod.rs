@@ -4,6 +4,7 @@
 //! kind of run; summaries are typed; per-sample rows stream to Parquet.
 
 pub mod manifest;
+pub mod parquet;
 pub mod samples;
 pub mod shard;
 mod staging;

@@ -1,31 +1,52 @@
-//! `samples.parquet`: one row per sample (a drop scene: one row per sample,
-//! law and impact), streamed in row groups of [`ROW_GROUP`] rows (zstd)
-//! while the run goes on, so memory stays bounded whatever the sample count.
-
-use std::fs::File;
+//! The per-sample rows: which columns a scene has, their types, and the
+//! rows of a batch, column-major at their native width (an f32 run keeps
+//! f32 values, integers their narrowest exact type), as the engine and the
+//! drop batches fill them. [`super::parquet`] writes them.
 
 use glam::{DMat3, DQuat};
-use polars::prelude::*;
 
-use crate::config::Scene;
+use crate::config::{Precision, Scene};
 use crate::kernel::{Geometry, LawOut, ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, UNSOLVED};
+use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::physics::{ImpactOutcome, Motion};
 use crate::sampler::Inputs;
 
-/// Rows per Parquet row group.
-pub const ROW_GROUP: usize = 1 << 18;
+/// The width of an integer column: every value the column can take fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IntWidth {
+    U8,
+    U16,
+}
+
+/// An integer column after `sample`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IntColumn {
+    pub name: String,
+    pub width: IntWidth,
+}
+
+impl IntColumn {
+    fn new(name: impl Into<String>, width: IntWidth) -> Self {
+        Self {
+            name: name.into(),
+            width,
+        }
+    }
+}
 
 /// Which per-sample columns to write.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Selection {
-    /// All f64 column names and all u32 column names, in engine order.
+    /// All float column names and all integer columns, in engine order.
     floats: Vec<String>,
-    ints: Vec<String>,
+    ints: Vec<IntColumn>,
     keep_float: Vec<bool>,
     keep_int: Vec<bool>,
     /// A drop scene's law names, for its `law` column.
     laws: Vec<String>,
+    /// The float columns' type.
+    precision: Precision,
 }
 
 impl Selection {
@@ -34,21 +55,24 @@ impl Selection {
     /// lists the available columns.
     pub fn new(
         floats: Vec<String>,
-        ints: Vec<String>,
+        ints: Vec<IntColumn>,
+        precision: Precision,
         wanted: Option<&[String]>,
     ) -> Result<Self, String> {
-        let keep = |names: &[String]| -> Vec<bool> {
+        let keep = |names: &mut dyn Iterator<Item = &String>| -> Vec<bool> {
             names
-                .iter()
                 .map(|n| wanted.is_none_or(|w| w.iter().any(|x| x == n)))
                 .collect()
         };
         if let Some(w) = wanted {
             for name in w {
-                if name != "sample" && !floats.contains(name) && !ints.contains(name) {
+                if name != "sample"
+                    && !floats.contains(name)
+                    && !ints.iter().any(|c| &c.name == name)
+                {
                     let mut all = vec!["sample".to_string()];
                     all.extend(floats.iter().cloned());
-                    all.extend(ints.iter().cloned());
+                    all.extend(ints.iter().map(|c| c.name.clone()));
                     return Err(format!(
                         "unknown per-sample column {name:?}; available: {}",
                         all.join(", ")
@@ -57,16 +81,17 @@ impl Selection {
             }
         }
         Ok(Self {
-            keep_float: keep(&floats),
-            keep_int: keep(&ints),
+            keep_float: keep(&mut floats.iter()),
+            keep_int: keep(&mut ints.iter().map(|c| &c.name)),
             floats,
             ints,
             laws: Vec::new(),
+            precision,
         })
     }
 
-    /// The per-sample selection of a scene: [`sample_columns`], and a drop
-    /// scene's `law` column.
+    /// The per-sample selection of a scene: [`sample_columns`] at
+    /// [`float_precision`], and a drop scene's `law` column.
     pub fn of_scene(scene: &Scene, wanted: Option<&[String]>) -> Result<Self, String> {
         let (floats, ints) = sample_columns(scene);
         let drop = scene.drop_box().is_some();
@@ -77,144 +102,147 @@ impl Selection {
                 .cloned()
                 .collect()
         });
-        let mut s = Self::new(floats, ints, wanted.as_deref())?;
+        let mut s = Self::new(floats, ints, float_precision(scene), wanted.as_deref())?;
         if drop {
             s.laws = scene.laws().iter().map(|l| l.name()).collect();
         }
         Ok(s)
     }
+
+    /// The kept float columns: (index in the rows, name).
+    pub fn floats(&self) -> impl Iterator<Item = (usize, &str)> {
+        self.floats
+            .iter()
+            .zip(&self.keep_float)
+            .enumerate()
+            .filter(|(_, (_, k))| **k)
+            .map(|(i, (n, _))| (i, n.as_str()))
+    }
+
+    /// The kept integer columns: (index in the rows, column).
+    pub fn ints(&self) -> impl Iterator<Item = (usize, &IntColumn)> {
+        self.ints
+            .iter()
+            .zip(&self.keep_int)
+            .enumerate()
+            .filter(|(_, (_, k))| **k)
+            .map(|(i, (c, _))| (i, c))
+    }
+
+    /// A drop scene's law names (empty for a contact scene).
+    pub fn laws(&self) -> &[String] {
+        &self.laws
+    }
+
+    /// The float columns' type.
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
 }
 
-/// Streams rows into a Parquet file.
-pub struct SamplesWriter {
-    file: Option<File>,
-    writer: Option<BatchedWriter<File>>,
-    buffer: SampleRows,
-    selection: Selection,
-    /// Grid point of a sweep, written as a `point` column.
-    point: Option<u32>,
-    pub rows_written: u64,
+/// The type of a scene's per-sample float columns: the run's precision
+/// (a drop scene runs the f64 reference).
+pub fn float_precision(scene: &Scene) -> Precision {
+    if scene.drop_box().is_some() {
+        Precision::F64
+    } else {
+        scene.precision()
+    }
 }
 
-impl SamplesWriter {
-    pub fn new(file: File, selection: Selection) -> Self {
-        Self {
-            file: Some(file),
-            writer: None,
-            buffer: SampleRows::default(),
-            selection,
-            point: None,
-            rows_written: 0,
+/// Float columns at one precision.
+#[derive(Debug, Clone)]
+pub enum Floats {
+    F32(Vec<Vec<f32>>),
+    F64(Vec<Vec<f64>>),
+}
+
+impl Floats {
+    fn new(precision: Precision, columns: usize) -> Self {
+        match precision {
+            Precision::F32 => Floats::F32(vec![Vec::new(); columns]),
+            Precision::F64 => Floats::F64(vec![Vec::new(); columns]),
         }
     }
 
-    /// Sets the grid point written with the following rows.
-    pub fn set_point(&mut self, point: Option<u32>) -> PolarsResult<()> {
-        self.flush()?;
-        self.point = point;
-        Ok(())
+    /// Appends to column `k`. An f32 column stores the values rounded to
+    /// f32: the engine's f32 values come back exactly, and a quotient of
+    /// two of them, formed in f64 and rounded once, is their f32 quotient.
+    fn extend(&mut self, k: usize, values: impl Iterator<Item = f64>) {
+        match self {
+            Floats::F32(c) => c[k].extend(values.map(|v| v as f32)),
+            Floats::F64(c) => c[k].extend(values),
+        }
     }
 
-    pub fn push(&mut self, rows: SampleRows) -> PolarsResult<()> {
-        if self.buffer.floats.is_empty() && self.buffer.ints.is_empty() {
-            self.buffer = rows;
-        } else {
-            self.buffer.append(&rows);
+    fn append(&mut self, other: &Floats) {
+        match (self, other) {
+            (Floats::F32(a), Floats::F32(b)) => a.iter_mut().zip(b).for_each(|(a, b)| a.extend(b)),
+            (Floats::F64(a), Floats::F64(b)) => a.iter_mut().zip(b).for_each(|(a, b)| a.extend(b)),
+            _ => unreachable!("rows of one run share a precision"),
         }
-        if self.buffer.len() >= ROW_GROUP {
-            self.flush()?;
-        }
-        Ok(())
     }
 
-    fn frame(&mut self) -> PolarsResult<DataFrame> {
-        let b = std::mem::take(&mut self.buffer);
-        let n = b.index.len();
-        let mut cols = Vec::new();
-        if let Some(p) = self.point {
-            cols.push(Column::new("point".into(), vec![p; n]));
+    /// Column `k` as f64 (for tests and checks).
+    pub fn column_f64(&self, k: usize) -> Vec<f64> {
+        match self {
+            Floats::F32(c) => c[k].iter().map(|&v| v as f64).collect(),
+            Floats::F64(c) => c[k].clone(),
         }
-        cols.push(Column::new("sample".into(), b.index));
-        if !self.selection.laws.is_empty() {
-            let names = &self.selection.laws;
-            let law: Vec<&str> = b.law.iter().map(|&l| names[l as usize].as_str()).collect();
-            cols.push(Column::new("law".into(), law));
-        }
-        for ((name, keep), v) in self
-            .selection
-            .floats
-            .iter()
-            .zip(&self.selection.keep_float)
-            .zip(b.floats)
-        {
-            if *keep {
-                cols.push(Column::new(name.into(), v));
-            }
-        }
-        for ((name, keep), v) in self
-            .selection
-            .ints
-            .iter()
-            .zip(&self.selection.keep_int)
-            .zip(b.ints)
-        {
-            if *keep {
-                cols.push(Column::new(name.into(), v));
-            }
-        }
-        DataFrame::new(n, cols)
     }
+}
 
-    fn flush(&mut self) -> PolarsResult<()> {
-        if self.buffer.is_empty() {
-            return Ok(());
-        }
-        let df = self.frame()?;
-        if self.writer.is_none() {
-            let file = self.file.take().expect("file until the first row group");
-            self.writer = Some(
-                ParquetWriter::new(file)
-                    // Encoding, not compression, dominates the cost here:
-                    // uncompressed is only about 20 % faster.
-                    .with_compression(ParquetCompression::Zstd(None))
-                    .batched(df.schema())?,
-            );
-        }
-        self.writer.as_mut().expect("writer").write_batch(&df)?;
-        self.rows_written += df.height() as u64;
-        Ok(())
-    }
+/// Fills float columns one after the other.
+struct Columns<'a> {
+    floats: &'a mut Floats,
+    next: usize,
+}
 
-    /// Writes the last rows and the footer.
-    pub fn finish(mut self) -> PolarsResult<u64> {
-        self.flush()?;
-        if let Some(w) = self.writer.take() {
-            w.finish()?;
-        }
-        Ok(self.rows_written)
+impl Columns<'_> {
+    fn put(&mut self, values: impl Iterator<Item = f64>) {
+        self.floats.extend(self.next, values);
+        self.next += 1;
     }
 }
 
 /// Per-sample rows of one batch, column-major, in sample order (the columns
 /// of [`sample_columns`]).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct SampleRows {
     pub index: Vec<u64>,
     /// A drop scene's law per row (index into the scene's laws); empty for
     /// a contact scene.
     pub law: Vec<u32>,
-    pub floats: Vec<Vec<f64>>,
-    pub ints: Vec<Vec<u32>>,
+    pub floats: Floats,
+    /// Integer columns; each value fits its column's [`IntWidth`].
+    pub ints: Vec<Vec<u16>>,
 }
 
 impl SampleRows {
-    pub fn new(floats: usize, ints: usize) -> Self {
+    pub fn new(precision: Precision, floats: usize, ints: usize) -> Self {
         Self {
             index: Vec::new(),
             law: Vec::new(),
-            floats: vec![Vec::new(); floats],
+            floats: Floats::new(precision, floats),
             ints: vec![Vec::new(); ints],
         }
+    }
+
+    /// Empty rows for a scene's columns.
+    pub fn of_scene(scene: &Scene) -> Self {
+        let (f, i) = sample_columns(scene);
+        Self::new(float_precision(scene), f.len(), i.len())
+    }
+
+    /// Reserves room for `rows` more rows in every column (one allocation
+    /// per column instead of a doubling series of copies).
+    pub fn reserve(&mut self, rows: usize) {
+        self.index.reserve(rows);
+        match &mut self.floats {
+            Floats::F32(c) => c.iter_mut().for_each(|c| c.reserve(rows)),
+            Floats::F64(c) => c.iter_mut().for_each(|c| c.reserve(rows)),
+        }
+        self.ints.iter_mut().for_each(|c| c.reserve(rows));
     }
 
     pub fn len(&self) -> usize {
@@ -229,20 +257,18 @@ impl SampleRows {
     pub fn append(&mut self, other: &SampleRows) {
         self.index.extend_from_slice(&other.index);
         self.law.extend_from_slice(&other.law);
-        for (a, b) in self.floats.iter_mut().zip(&other.floats) {
-            a.extend_from_slice(b);
-        }
+        self.floats.append(&other.floats);
         for (a, b) in self.ints.iter_mut().zip(&other.ints) {
             a.extend_from_slice(b);
         }
     }
 }
 
-/// Names of the per-sample columns after `sample` (u64): the f64 columns,
-/// then the u32 columns. Units: m/s, rad/s, J, N·s; `active_LAW` is the
+/// The per-sample columns after `sample` (u64): the float columns, then the
+/// integer columns. Units: m/s, rad/s, J, N·s; `active_LAW` (u8) is the
 /// active-set bitmask over the touching planes in scene order, `flags_LAW`
-/// the kernel status bits (see README).
-pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+/// (u16) the kernel status bits (see the reference).
+pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     if scene.drop_box().is_some() {
         return drop_columns(scene);
     }
@@ -281,14 +307,14 @@ pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
         }
         f.extend(planes.iter().map(|p| format!("impulse_{l}_{p}")));
         f.extend(planes.iter().map(|p| format!("vn_after_{l}_{p}")));
-        ints.push(format!("active_{l}"));
-        ints.push(format!("flags_{l}"));
+        ints.push(IntColumn::new(format!("active_{l}"), IntWidth::U8));
+        ints.push(IntColumn::new(format!("flags_{l}"), IntWidth::U16));
     }
     (f, ints)
 }
 
 /// Appends a block's rows (after recomputation) in the order of
-/// [`sample_columns`].
+/// [`sample_columns`], column by column.
 pub fn push_rows<T: Real, const N: usize>(
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
@@ -297,65 +323,73 @@ pub fn push_rows<T: Real, const N: usize>(
     count: usize,
     rows: &mut SampleRows,
 ) {
-    for s in 0..count {
-        rows.index.push(first + s as u64);
+    rows.index.extend(first..first + count as u64);
+    // The orientation as a unit quaternion with w ≥ 0, from the matrix the
+    // kernel used.
+    let mut q = [[0.0f64; 4]; BLOCK];
+    for (s, q) in q.iter_mut().enumerate().take(count) {
         let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
-        let q = DQuat::from_mat3(&a);
-        let q = if q.w < 0.0 { -q } else { q };
-        let mut f = rows.floats.iter_mut();
-        let mut put = |v: f64| f.next().expect("column count").push(v);
-        for v in [q.w, q.x, q.y, q.z] {
-            put(v);
+        let r = DQuat::from_mat3(&a);
+        let r = if r.w < 0.0 { -r } else { r };
+        *q = [r.w, r.x, r.y, r.z];
+    }
+    let mut cols = Columns {
+        floats: &mut rows.floats,
+        next: 0,
+    };
+    fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
+        c[..count].iter().map(|v| v.to_f64())
+    }
+    for c in 0..4 {
+        cols.put(q[..count].iter().map(|q| q[c]));
+    }
+    for c in x.v.iter().chain(&x.w) {
+        cols.put(lane(c, count));
+    }
+    cols.put(lane(&geo.t_before, count));
+    for c in &geo.vn {
+        cols.put(lane(c, count));
+    }
+    for out in outs {
+        cols.put(lane(&out.t_after, count));
+        cols.put(
+            lane(&out.t_after, count)
+                .zip(lane(&geo.t_before, count))
+                .map(|(t1, t0)| t1 / t0),
+        );
+        for c in out.v_after.iter().chain(&out.w_after) {
+            cols.put(lane(c, count));
         }
-        for k in 0..3 {
-            put(x.v[k][s].to_f64());
+        for c in out.lambda.iter().chain(&out.vn_after) {
+            cols.put(lane(c, count));
         }
-        for k in 0..3 {
-            put(x.w[k][s].to_f64());
-        }
-        let t0 = geo.t_before[s].to_f64();
-        put(t0);
-        for i in 0..N {
-            put(geo.vn[i][s].to_f64());
-        }
-        for out in outs {
-            let t1 = out.t_after[s].to_f64();
-            put(t1);
-            put(t1 / t0);
-            for k in 0..3 {
-                put(out.v_after[k][s].to_f64());
-            }
-            for k in 0..3 {
-                put(out.w_after[k][s].to_f64());
-            }
-            for i in 0..N {
-                put(out.lambda[i][s].to_f64());
-            }
-            for i in 0..N {
-                put(out.vn_after[i][s].to_f64());
-            }
-        }
-        let mut ints = rows.ints.iter_mut();
-        for out in outs {
-            let st = out.status[s];
-            ints.next()
-                .expect("column count")
-                .push((st >> ACTIVE_SHIFT) & ((1 << N) - 1));
-            ints.next().expect("column count").push(st);
-        }
+    }
+    let mut ints = rows.ints.iter_mut();
+    for out in outs {
+        let status = &out.status[..count];
+        let active = ints.next().expect("column count");
+        active.extend(
+            status
+                .iter()
+                .map(|st| ((st >> ACTIVE_SHIFT) & ((1 << N) - 1)) as u16),
+        );
+        // Status bits end at bit 14: a u16 holds them.
+        let flags = ints.next().expect("column count");
+        flags.extend(status.iter().map(|&st| st as u16));
     }
 }
 
 /// A drop scene's per-impact columns after `sample` (u64) and `law` (str):
-/// the f64 columns, then the u32 columns. At the moment of impact: `time`
+/// the f64 columns, then the integer columns. At the moment of impact: `time`
 /// since release and `interval` since the previous impact (s), the centre
 /// (m), the orientation (unit quaternion body → world, w ≥ 0), v (world,
 /// m/s) and ω (body, rad/s) before and after, the energies (J), and per
 /// plane its distance (m), normal velocity before and after (m/s) and
-/// impulse (N·s). `bounce` counts impacts from 1, `planes` is the bitmask of
-/// the planes that took an impulse (scene order), `flags` the kernel's
-/// status bits for energy_gain, degenerate, jammed and unsolved.
-pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
+/// impulse (N·s). `bounce` (u16) counts impacts from 1, `planes` (u8) is the
+/// bitmask of the planes that took an impulse (scene order, at most six),
+/// `flags` (u16) the kernel's status bits for energy_gain, degenerate,
+/// jammed and unsolved.
+pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     let mut f: Vec<String> = [
         "time",
         "interval",
@@ -390,10 +424,11 @@ pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<String>) {
             f.push(format!("{c}_{}", p.name));
         }
     }
-    let ints = ["bounce", "planes", "flags"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let ints = vec![
+        IntColumn::new("bounce", IntWidth::U16),
+        IntColumn::new("planes", IntWidth::U8),
+        IntColumn::new("flags", IntWidth::U16),
+    ];
     (f, ints)
 }
 
@@ -420,8 +455,11 @@ impl SampleRows {
         let o = r.outcome;
         let q = DQuat::from_mat3(&m.rotation);
         let q = if q.w < 0.0 { -q } else { q };
-        let mut f = self.floats.iter_mut();
-        let mut put = |v: f64| f.next().expect("column count").push(v);
+        let mut cols = Columns {
+            floats: &mut self.floats,
+            next: 0,
+        };
+        let mut put = |v: f64| cols.put(std::iter::once(v));
         for v in [r.time, r.interval] {
             put(v);
         }
@@ -468,7 +506,9 @@ impl SampleRows {
         ]
         .iter()
         .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
-        for (col, v) in self.ints.iter_mut().zip([r.bounce, r.planes, flags]) {
+        // Bounces are at most 10,000, planes at most six, flags end at bit 12.
+        let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
+        for (col, v) in self.ints.iter_mut().zip(ints) {
             col.push(v);
         }
     }

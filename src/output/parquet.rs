@@ -1,0 +1,471 @@
+//! `samples.parquet`, written at the speed of the disk: rows are gathered
+//! into row groups of [`ROW_GROUP`] rows; each row group's columns are
+//! encoded in parallel on a pool of their own (one thread per run thread)
+//! while the run goes on, and one writer thread appends the encoded row
+//! groups to the file in order. Encoding is per column and the order is
+//! fixed, so the file is the same byte for byte whatever the thread count;
+//! at most [`IN_FLIGHT_PER_THREAD`] row groups per thread are held at once,
+//! so memory stays bounded whatever the sample count.
+//!
+//! Float columns are written at the run's precision with the
+//! `BYTE_STREAM_SPLIT` encoding (the bytes of each position together, which
+//! a fast codec compresses well), `sample` delta-encoded, and the small
+//! integer and string columns dictionary-encoded (RLE). Statistics are kept
+//! per row group and page, so readers can prune on `sample`, `bounce` and
+//! the like. The arrow-rs writer is used because polars' writer offers no
+//! float encoding but dictionary-then-plain and encodes one row group at a
+//! time (docs/performance.md has the measurements).
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::sync::mpsc;
+use std::sync::{Arc, Condvar, Mutex};
+use std::thread::JoinHandle;
+
+use arrow_array::{
+    ArrayRef, Float32Array, Float64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
+    UInt8Array,
+};
+use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk, ArrowRowGroupWriterFactory};
+use parquet::arrow::ArrowSchemaConverter;
+use parquet::basic::{Compression as Codec, Encoding, ZstdLevel};
+use parquet::errors::ParquetError;
+use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::ColumnPath;
+use rayon::prelude::*;
+
+use super::samples::{Floats, IntWidth, SampleRows, Selection};
+use crate::config::Precision;
+
+/// Rows per Parquet row group.
+pub const ROW_GROUP: usize = 1 << 17;
+
+/// Row groups held (being encoded or written) per encoding thread.
+pub const IN_FLIGHT_PER_THREAD: usize = 2;
+
+/// Bytes written between two syncs of the file. Without them the kernel
+/// would hold a whole file of this size in its cache and write it only at
+/// the final sync, after the encoding, instead of during it.
+const SYNC_EVERY: usize = 64 << 20;
+
+/// The codec of `samples.parquet` (`[output] compression` and `level`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compression {
+    /// Zstandard at a level in 1..=22.
+    Zstd {
+        level: i32,
+    },
+    /// LZ4 (Parquet's LZ4_RAW).
+    Lz4,
+    None,
+}
+
+impl Compression {
+    /// The default, chosen by measurement (docs/performance.md).
+    pub const DEFAULT: Compression = Compression::Zstd { level: 1 };
+
+    /// From the scene's `compression` name and `level`. An error names the
+    /// field and the value.
+    pub fn new(name: Option<&str>, level: Option<i32>) -> Result<Self, (&'static str, String)> {
+        let c = match name {
+            None | Some("zstd") => {
+                let level = level.unwrap_or(1);
+                if !(1..=22).contains(&level) {
+                    return Err(("level", format!("zstd levels are 1..=22, got {level}")));
+                }
+                return Ok(Compression::Zstd { level });
+            }
+            Some("lz4") => Compression::Lz4,
+            Some("none") => Compression::None,
+            Some(other) => {
+                return Err((
+                    "compression",
+                    format!("{other:?} is not one of \"zstd\", \"lz4\", \"none\""),
+                ))
+            }
+        };
+        match level {
+            Some(l) => Err((
+                "level",
+                format!("a level applies to zstd only, got {l} with {}", c.name()),
+            )),
+            None => Ok(c),
+        }
+    }
+
+    /// "zstd", "lz4" or "none".
+    pub fn name(self) -> &'static str {
+        match self {
+            Compression::Zstd { .. } => "zstd",
+            Compression::Lz4 => "lz4",
+            Compression::None => "none",
+        }
+    }
+
+    /// The zstd level (none for the other codecs).
+    pub fn level(self) -> Option<i32> {
+        match self {
+            Compression::Zstd { level } => Some(level),
+            _ => None,
+        }
+    }
+
+    fn codec(self) -> Codec {
+        match self {
+            Compression::Zstd { level } => {
+                Codec::ZSTD(ZstdLevel::try_new(level).expect("level checked by Compression::new"))
+            }
+            Compression::Lz4 => Codec::LZ4_RAW,
+            Compression::None => Codec::UNCOMPRESSED,
+        }
+    }
+}
+
+/// How `samples.parquet` is written.
+#[derive(Debug, Clone, Copy)]
+pub struct WriteOptions {
+    pub compression: Compression,
+    /// Encoding threads (at least one).
+    pub threads: usize,
+    /// A sweep: rows carry their grid point in a `point` column.
+    pub sweep: bool,
+}
+
+/// The float columns' encoding.
+pub const FLOAT_ENCODING: &str = "BYTE_STREAM_SPLIT";
+
+type Encoded = Result<Vec<ArrowColumnChunk>, ParquetError>;
+
+/// Row groups submitted and not yet written, and whether writing failed.
+#[derive(Default)]
+struct Slots {
+    state: Mutex<(usize, bool)>,
+    changed: Condvar,
+}
+
+impl Slots {
+    /// Waits for a free slot and takes it; false if writing failed.
+    fn take(&self, most: usize) -> bool {
+        let mut s = self.state.lock().expect("slots");
+        while s.0 >= most && !s.1 {
+            s = self.changed.wait(s).expect("slots");
+        }
+        s.0 += 1;
+        !s.1
+    }
+
+    fn give(&self, failed: bool) {
+        let mut s = self.state.lock().expect("slots");
+        s.0 -= 1;
+        s.1 |= failed;
+        self.changed.notify_all();
+    }
+}
+
+/// Streams per-sample rows into `samples.parquet`.
+pub struct SamplesWriter {
+    selection: Arc<Selection>,
+    schema: SchemaRef,
+    factory: Arc<ArrowRowGroupWriterFactory>,
+    /// Batches of the row group being filled, and their rows.
+    buffer: Vec<SampleRows>,
+    buffered: usize,
+    point: Option<u32>,
+    sweep: bool,
+    encoders: rayon::ThreadPool,
+    in_flight: usize,
+    slots: Arc<Slots>,
+    encoded: Option<mpsc::Sender<(usize, Encoded)>>,
+    writer: Option<JoinHandle<Result<(), ParquetError>>>,
+    groups: usize,
+    rows: u64,
+}
+
+impl SamplesWriter {
+    pub fn new(file: File, selection: Selection, opts: WriteOptions) -> Result<Self, ParquetError> {
+        let schema = Arc::new(schema_of(&selection, opts.sweep));
+        let props = Arc::new(properties(&schema, opts.compression));
+        let parquet = ArrowSchemaConverter::new()
+            .with_coerce_types(props.coerce_types())
+            .convert(&schema)?;
+        // A large buffer: the disk sees few, long writes.
+        let out = SerializedFileWriter::new(
+            BufWriter::with_capacity(8 << 20, file),
+            parquet.root_schema_ptr(),
+            props,
+        )?;
+        let factory = Arc::new(ArrowRowGroupWriterFactory::new(&out, schema.clone()));
+        let threads = opts.threads.max(1);
+        let encoders = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("impactmc-parquet-{i}"))
+            .build()
+            .map_err(|e| ParquetError::External(Box::new(e)))?;
+        let slots = Arc::new(Slots::default());
+        let (tx, rx) = mpsc::channel();
+        let writer = {
+            let slots = slots.clone();
+            std::thread::Builder::new()
+                .name("impactmc-parquet-writer".into())
+                .spawn(move || write_in_order(out, rx, &slots))
+                .map_err(|e| ParquetError::External(Box::new(e)))?
+        };
+        Ok(Self {
+            selection: Arc::new(selection),
+            schema,
+            factory,
+            buffer: Vec::new(),
+            buffered: 0,
+            point: None,
+            sweep: opts.sweep,
+            encoders,
+            in_flight: IN_FLIGHT_PER_THREAD * threads,
+            slots,
+            encoded: Some(tx),
+            writer: Some(writer),
+            groups: 0,
+            rows: 0,
+        })
+    }
+
+    /// Sets the grid point written with the following rows (a sweep).
+    pub fn set_point(&mut self, point: Option<u32>) -> Result<(), ParquetError> {
+        self.flush()?;
+        self.point = point;
+        Ok(())
+    }
+
+    /// Takes a batch of rows (in sample order).
+    pub fn push(&mut self, rows: SampleRows) -> Result<(), ParquetError> {
+        self.buffered += rows.len();
+        self.buffer.push(rows);
+        if self.buffered >= ROW_GROUP {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Hands the buffered batches to the encoders as one row group (each
+    /// column written batch by batch: nothing is copied into one buffer).
+    fn flush(&mut self) -> Result<(), ParquetError> {
+        let batches = std::mem::take(&mut self.buffer);
+        let rows = std::mem::take(&mut self.buffered);
+        if rows == 0 {
+            return Ok(());
+        }
+        if !self.slots.take(self.in_flight) {
+            self.slots.give(false);
+            return Err(self.failure());
+        }
+        self.rows += rows as u64;
+        let index = self.groups;
+        let (factory, schema) = (self.factory.clone(), self.schema.clone());
+        let (selection, point) = (self.selection.clone(), self.sweep.then_some(self.point));
+        let tx = self.encoded.clone().expect("open until finish");
+        self.encoders.spawn(move || {
+            let point = point.map(|p| p.expect("a sweep sets its point"));
+            let columns = transpose(
+                batches
+                    .into_iter()
+                    .map(|b| arrays(&selection, point, b))
+                    .collect(),
+            );
+            let _ = tx.send((index, encode(&factory, &schema, index, columns)));
+        });
+        self.groups += 1;
+        Ok(())
+    }
+
+    /// The writer thread's error (it stopped writing).
+    fn failure(&mut self) -> ParquetError {
+        self.encoded = None;
+        match self.writer.take().map(|w| w.join()) {
+            Some(Ok(Err(e))) => e,
+            Some(Err(_)) => ParquetError::General("the Parquet writer thread panicked".into()),
+            _ => ParquetError::General("the Parquet writer stopped".into()),
+        }
+    }
+
+    /// Writes the last rows, waits for every row group, writes the footer
+    /// and syncs the file. Returns the rows written.
+    pub fn finish(mut self) -> Result<u64, ParquetError> {
+        self.flush()?;
+        // The writer thread ends when every encoding job has sent its row
+        // group and this last sender is gone.
+        self.encoded = None;
+        match self.writer.take().expect("finished once").join() {
+            Ok(r) => r?,
+            Err(_) => {
+                return Err(ParquetError::General(
+                    "the Parquet writer thread panicked".into(),
+                ))
+            }
+        }
+        Ok(self.rows)
+    }
+}
+
+/// A batch's selected columns, in the schema's order (`point` for a sweep).
+fn arrays(selection: &Selection, point: Option<u32>, mut b: SampleRows) -> Vec<ArrayRef> {
+    let n = b.len();
+    let mut cols: Vec<ArrayRef> = Vec::new();
+    if let Some(p) = point {
+        cols.push(Arc::new(UInt32Array::from(vec![p; n])));
+    }
+    cols.push(Arc::new(UInt64Array::from(std::mem::take(&mut b.index))));
+    let laws = selection.laws();
+    if !laws.is_empty() {
+        cols.push(Arc::new(StringArray::from_iter_values(
+            b.law.iter().map(|&l| laws[l as usize].as_str()),
+        )));
+    }
+    for (i, _) in selection.floats() {
+        cols.push(match &mut b.floats {
+            Floats::F32(c) => Arc::new(Float32Array::from(std::mem::take(&mut c[i]))),
+            Floats::F64(c) => Arc::new(Float64Array::from(std::mem::take(&mut c[i]))),
+        });
+    }
+    for (i, c) in selection.ints() {
+        let v = std::mem::take(&mut b.ints[i]);
+        cols.push(match c.width {
+            IntWidth::U8 => Arc::new(UInt8Array::from_iter_values(v.iter().map(|&x| x as u8))),
+            IntWidth::U16 => Arc::new(UInt16Array::from(v)),
+        });
+    }
+    cols
+}
+
+/// Per batch, per column → per column, per batch.
+fn transpose(batches: Vec<Vec<ArrayRef>>) -> Vec<Vec<ArrayRef>> {
+    let mut columns: Vec<Vec<ArrayRef>> = Vec::new();
+    for batch in batches {
+        columns.resize_with(batch.len(), Vec::new);
+        for (c, a) in columns.iter_mut().zip(batch) {
+            c.push(a);
+        }
+    }
+    columns
+}
+
+/// Encodes a row group's columns in parallel.
+fn encode(
+    factory: &ArrowRowGroupWriterFactory,
+    schema: &Schema,
+    index: usize,
+    columns: Vec<Vec<ArrayRef>>,
+) -> Encoded {
+    let writers = factory.create_column_writers(index)?;
+    writers
+        .into_par_iter()
+        .zip(columns)
+        .zip(schema.fields().to_vec())
+        .map(|((mut w, parts), field)| {
+            for array in &parts {
+                for leaf in compute_leaves(&field, array)? {
+                    w.write(&leaf)?;
+                }
+            }
+            w.close()
+        })
+        .collect()
+}
+
+/// The writer thread: appends encoded row groups in index order, then the
+/// footer, and syncs the file. After an error it keeps taking row groups
+/// (and freeing their slots) without writing them, so nothing waits on it.
+fn write_in_order(
+    mut out: SerializedFileWriter<BufWriter<File>>,
+    encoded: mpsc::Receiver<(usize, Encoded)>,
+    slots: &Slots,
+) -> Result<(), ParquetError> {
+    let mut pending = BTreeMap::new();
+    let mut next = 0;
+    let mut failure = None;
+    let mut synced = 0;
+    for (index, group) in encoded {
+        pending.insert(index, group);
+        while let Some(group) = pending.remove(&next) {
+            next += 1;
+            if failure.is_none() {
+                let written = group.and_then(|chunks| {
+                    let mut rg = out.next_row_group()?;
+                    for chunk in chunks {
+                        chunk.append_to_row_group(&mut rg)?;
+                    }
+                    rg.close()?;
+                    // The disk writes while the next row groups are encoded,
+                    // not all at the end.
+                    if out.bytes_written() - synced >= SYNC_EVERY {
+                        synced = out.bytes_written();
+                        let f = out.inner_mut();
+                        f.flush()?;
+                        f.get_ref().sync_data()?;
+                    }
+                    Ok(())
+                });
+                failure = written.err();
+            }
+            slots.give(failure.is_some());
+        }
+    }
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    let file = out
+        .into_inner()?
+        .into_inner()
+        .map_err(|e| ParquetError::External(Box::new(e.into_error())))?;
+    file.sync_all()?;
+    Ok(())
+}
+
+/// The Arrow schema of the selected columns.
+fn schema_of(selection: &Selection, sweep: bool) -> Schema {
+    let mut fields = Vec::new();
+    if sweep {
+        fields.push(Field::new("point", DataType::UInt32, false));
+    }
+    fields.push(Field::new("sample", DataType::UInt64, false));
+    if !selection.laws().is_empty() {
+        fields.push(Field::new("law", DataType::Utf8, false));
+    }
+    let float = match selection.precision() {
+        Precision::F32 => DataType::Float32,
+        Precision::F64 => DataType::Float64,
+    };
+    for (_, name) in selection.floats() {
+        fields.push(Field::new(name, float.clone(), false));
+    }
+    for (_, c) in selection.ints() {
+        let t = match c.width {
+            IntWidth::U8 => DataType::UInt8,
+            IntWidth::U16 => DataType::UInt16,
+        };
+        fields.push(Field::new(&c.name, t, false));
+    }
+    Schema::new(fields)
+}
+
+/// Writer properties: the codec, and per column its encoding.
+fn properties(schema: &Schema, compression: Compression) -> WriterProperties {
+    let mut b = WriterProperties::builder()
+        .set_compression(compression.codec())
+        .set_created_by(format!("impactmc {}", env!("CARGO_PKG_VERSION")));
+    for f in schema.fields() {
+        let path = ColumnPath::from(f.name().as_str());
+        let encoding = match f.data_type() {
+            DataType::Float32 | DataType::Float64 => Encoding::BYTE_STREAM_SPLIT,
+            // Consecutive sample numbers: deltas of 1 pack to almost nothing.
+            DataType::UInt64 => Encoding::DELTA_BINARY_PACKED,
+            // Few distinct values: the dictionary (RLE) encoding.
+            _ => continue,
+        };
+        b = b
+            .set_column_dictionary_enabled(path.clone(), false)
+            .set_column_encoding(path, encoding);
+    }
+    b.build()
+}

@@ -1,0 +1,105 @@
+"""Reads a samples.parquet with pyarrow, DuckDB and polars, and checks every
+column against the values the run's kernel computed for each sample (given by
+the caller, computed without the writer): the column's type in each reader,
+and every value exactly. The orientation quaternion, which the writer derives
+from the rotation matrix, is checked against that matrix. Called by
+tests/readers.rs.
+
+usage: check_values.py SAMPLES_PARQUET EXPECTED_JSON
+EXPECTED_JSON: {"columns": {name: {"type": "float32" | "float64" | "uint8" |
+                                            "uint16" | "uint32" | "uint64",
+                                   "values": [...]}},
+                "rotation": [[r00, r01, ..., r22], ...]  (row-major, per row),
+                "tolerance": max |R(q) - R| allowed}
+"""
+import json
+import sys
+
+import duckdb
+import polars as pl
+import pyarrow.parquet as pq
+
+# The type name each reader gives a column of this type.
+TYPES = {
+    "float32": {"pyarrow": "float", "polars": "Float32", "duckdb": "FLOAT"},
+    "float64": {"pyarrow": "double", "polars": "Float64", "duckdb": "DOUBLE"},
+    "uint8": {"pyarrow": "uint8", "polars": "UInt8", "duckdb": "UTINYINT"},
+    "uint16": {"pyarrow": "uint16", "polars": "UInt16", "duckdb": "USMALLINT"},
+    "uint32": {"pyarrow": "uint32", "polars": "UInt32", "duckdb": "UINTEGER"},
+    "uint64": {"pyarrow": "uint64", "polars": "UInt64", "duckdb": "UBIGINT"},
+}
+QUATERNION = ["q_w", "q_x", "q_y", "q_z"]
+
+
+def read_all(path):
+    """{reader: ({column: values}, {column: type name})}, rows in sample order."""
+    table = pq.read_table(path)
+    frame = pl.read_parquet(path)
+    con = duckdb.connect()
+    types = {r[0]: r[1] for r in con.execute(f"DESCRIBE SELECT * FROM read_parquet('{path}')").fetchall()}
+    cursor = con.execute(f"SELECT * FROM read_parquet('{path}') ORDER BY sample")
+    names = [d[0] for d in cursor.description]
+    rows = cursor.fetchall()
+    return {
+        "pyarrow": (
+            {n: table.column(n).to_pylist() for n in table.column_names},
+            {f.name: str(f.type) for f in table.schema},
+        ),
+        "polars": (
+            {n: frame.get_column(n).to_list() for n in frame.columns},
+            {n: str(t) for n, t in frame.schema.items()},
+        ),
+        "duckdb": ({n: [r[i] for r in rows] for i, n in enumerate(names)}, types),
+    }
+
+
+def rotation_of(w, x, y, z):
+    return [
+        1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+    ]
+
+
+def main() -> int:
+    path, expected_path = sys.argv[1], sys.argv[2]
+    expected = json.load(open(expected_path))
+    want = expected["columns"]
+    problems = []
+    for reader, (cols, types) in read_all(path).items():
+        extra = sorted(set(cols) - set(want) - set(QUATERNION))
+        missing = sorted(set(want) - set(cols))
+        if extra or missing:
+            problems.append(f"{reader}: columns not expected {extra}, missing {missing}")
+        for name, w in want.items():
+            if name not in cols:
+                continue
+            if types[name] != TYPES[w["type"]][reader]:
+                problems.append(f"{reader}: {name} is {types[name]}, expected {w['type']}")
+            got = cols[name]
+            if got != w["values"]:
+                bad = next((i for i, (a, b) in enumerate(zip(got, w["values"])) if a != b), None)
+                if bad is None:
+                    problems.append(f"{reader}: {name} has {len(got)} rows, expected {len(w['values'])}")
+                else:
+                    problems.append(f"{reader}: {name}[{bad}] = {got[bad]!r}, the run computed {w['values'][bad]!r}")
+        if all(q in cols for q in QUATERNION):
+            worst = 0.0
+            for i, r in enumerate(expected["rotation"]):
+                q = [cols[c][i] for c in QUATERNION]
+                if q[0] < 0:
+                    problems.append(f"{reader}: q_w < 0 in row {i}")
+                    break
+                worst = max(worst, max(abs(a - b) for a, b in zip(rotation_of(*q), r)))
+            if worst > expected["tolerance"]:
+                problems.append(f"{reader}: R(q) differs from the kernel's rotation by {worst}")
+        else:
+            problems.append(f"{reader}: no quaternion columns")
+    for p in problems:
+        print(p)
+    print(f"values: {len(want)} columns x 3 readers checked, {len(problems)} problems")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
