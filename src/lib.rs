@@ -26,4 +26,4 @@ pub mod stress;
 pub mod study;
 
 /// Version of the output schema (Parquet columns, JSON keys, manifest).
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;

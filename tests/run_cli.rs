@@ -50,9 +50,9 @@ fn scene_errors_name_file_line_field_and_value() {
         ("sd = [0.5, 0.5, 0.5]", "sd = [0.5, -0.5, 0.5]", "velocity.sd: must be ≥ 0, got [0.5, -0.5, 0.5]"),
         ("precision = \"f32\"", "precision = \"f16\"", "precision: must be \"f32\" or \"f64\", got \"f16\""),
         ("distribution = \"uniform\"", "distribution = \"isotropic\"", "unknown variant `isotropic`"),
-        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"gzip\"", ":46: output.compression: \"gzip\" is not one of \"zstd\", \"lz4\", \"none\""),
-        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\nlevel = 0", "output.level: zstd levels are 1..=22, got 0"),
-        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"lz4\"\nlevel = 3", "output.level: a level applies to zstd only, got 3 with lz4"),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"gzip\"", ":46: output.compression: \"gzip\" is not one of \"lz4\", \"zstd\", \"none\""),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\ncompression = \"zstd\"\nlevel = 0", "output.level: zstd levels are 1..=22, got 0"),
+        ("sd = [1.0, 1.0, 1.0]", "sd = [1.0, 1.0, 1.0]\n[output]\nlevel = 3", "output.level: a level applies to zstd only, got 3 with lz4"),
     ];
     for (from, to, want) in cases {
         let text = base.replacen(from, to, 1);

@@ -150,6 +150,28 @@ pub fn float_precision(scene: &Scene) -> Precision {
     }
 }
 
+/// The unit of a per-sample float column, from its name (the key-value
+/// metadata `impactmc.units` of `samples.parquet`).
+pub fn unit_of(column: &str) -> &'static str {
+    const UNITS: [(&str, &str); 11] = [
+        ("q_", "1"),
+        ("energy_ratio", "1"),
+        ("energy_", "J"),
+        ("omega_", "rad/s"),
+        ("vn_", "m/s"),
+        ("v_", "m/s"),
+        ("impulse_", "N·s"),
+        ("time", "s"),
+        ("interval", "s"),
+        ("centre_", "m"),
+        ("distance_", "m"),
+    ];
+    UNITS
+        .iter()
+        .find(|(prefix, _)| column.starts_with(prefix))
+        .map_or("", |(_, unit)| unit)
+}
+
 /// Float columns at one precision.
 #[derive(Debug, Clone)]
 pub enum Floats {

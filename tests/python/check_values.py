@@ -1,7 +1,8 @@
 """Reads a samples.parquet with pyarrow, DuckDB and polars, and checks every
 column against the values the run's kernel computed for each sample (given by
 the caller, computed without the writer): the column's type in each reader,
-and every value exactly. The orientation quaternion, which the writer derives
+and every value exactly; and that the key-value metadata gives every float
+column a unit. The orientation quaternion, which the writer derives
 from the rotation matrix, is checked against that matrix. Called by
 tests/readers.rs.
 
@@ -95,6 +96,12 @@ def main() -> int:
                 problems.append(f"{reader}: R(q) differs from the kernel's rotation by {worst}")
         else:
             problems.append(f"{reader}: no quaternion columns")
+    meta = pq.read_metadata(path).metadata or {}
+    units = json.loads(meta.get(b"impactmc.units", b"{}"))
+    floats = [n for n, w in want.items() if w["type"].startswith("float")] + QUATERNION
+    no_unit = [n for n in floats if not units.get(n)]
+    if no_unit or sorted(units) != sorted(floats):
+        problems.append(f"impactmc.units: no unit for {no_unit}; has {sorted(units)}")
     for p in problems:
         print(p)
     print(f"values: {len(want)} columns x 3 readers checked, {len(problems)} problems")

@@ -90,3 +90,50 @@ macro_rules! assert_close {
         );
     }};
 }
+
+/// A Parquet file read with the arrow-rs reader, as record batches (the
+/// Python readers are tested in tests/readers.rs).
+pub fn read_parquet(path: &Path) -> Vec<arrow_array::RecordBatch> {
+    let f = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(f)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(|b| b.unwrap())
+        .collect()
+}
+
+/// A primitive column of [`read_parquet`]'s batches, e.g.
+/// `column::<UInt16Type>(&b, "bounce")`.
+pub fn column<T: arrow_array::ArrowPrimitiveType>(
+    batches: &[arrow_array::RecordBatch],
+    name: &str,
+) -> Vec<T::Native> {
+    use arrow_array::cast::AsArray;
+    batches
+        .iter()
+        .flat_map(|b| {
+            let c = b
+                .column_by_name(name)
+                .unwrap_or_else(|| panic!("no column {name}"));
+            c.as_primitive::<T>().values().to_vec()
+        })
+        .collect()
+}
+
+/// A string column of [`read_parquet`]'s batches.
+pub fn strings(batches: &[arrow_array::RecordBatch], name: &str) -> Vec<String> {
+    use arrow_array::cast::AsArray;
+    batches
+        .iter()
+        .flat_map(|b| {
+            let c = b
+                .column_by_name(name)
+                .unwrap_or_else(|| panic!("no column {name}"));
+            c.as_string::<i32>()
+                .iter()
+                .map(|s| s.unwrap().to_string())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
