@@ -127,6 +127,11 @@ pub fn run_study(
     } else {
         None
     };
+    // The engine computes only the float columns the file keeps.
+    let opts = &RunOptions {
+        sample_floats: writer.as_ref().map(|(w, _)| w.float_mask().to_vec()),
+        ..opts.clone()
+    };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();

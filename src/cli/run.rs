@@ -101,6 +101,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         progress: true,
         shard: args.shard,
         keep,
+        ..Default::default()
     };
     // Validate the scene (every sweep point) and the folder before any work;
     // what will run goes to stderr (stdout may be JSON).

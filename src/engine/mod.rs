@@ -72,6 +72,9 @@ pub struct RunOptions {
     /// Effects computed although the scene does not need them (same
     /// answers; for measuring what the specialisation saves).
     pub keep: Keep,
+    /// The per-sample float columns a sink takes (one flag per column of
+    /// `sample_columns`); the others are not computed. None: all.
+    pub sample_floats: Option<Vec<bool>>,
 }
 
 /// Batches run per step when per-sample rows are written (rows are
@@ -90,6 +93,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     sink: Option<&mut SampleSink>,
+    empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
     let consts = Consts::<T, N>::new(scene);
     // Orientations feed the rotational terms and the per-sample rows only,
@@ -106,7 +110,6 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let laws = scene.laws().len();
     let batch = scene.batch_size();
     let total = scene.samples();
-    let empty_rows = SampleRows::of_scene(scene);
     let want_rows = sink.is_some();
     let ctx = Ctx {
         scene,
@@ -149,12 +152,12 @@ fn run_drops(
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     sink: Option<&mut SampleSink>,
+    empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
     let ctx = crate::drop::DropCtx::new(scene, keep);
     let shape = Shape::of(scene);
     let batch = scene.batch_size();
     let total = scene.samples();
-    let empty_rows = SampleRows::of_scene(scene);
     let want_rows = sink.is_some();
     let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
@@ -292,12 +295,18 @@ pub fn run_with_samples(
     let r = range.clone();
     let variant = KernelVariant::of(scene, opts.keep);
     let plan = StatsPlan::of(scene, opts.keep);
+    // What a batch's per-sample rows start from: the scene's columns, those
+    // the sink takes filled.
+    let mut rows = SampleRows::of_scene(scene);
+    if let Some(mask) = &opts.sample_floats {
+        rows.fill_only(mask);
+    }
     let nodes = pool
         .install(|| {
             if scene.drop_box().is_some() {
-                run_drops(scene, opts.keep, r, &bar, sink)
+                run_drops(scene, opts.keep, r, &bar, sink, rows)
             } else {
-                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink))
+                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
             }
         })
         .map_err(RunError::Sink)?;

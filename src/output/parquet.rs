@@ -236,6 +236,11 @@ impl SamplesWriter {
         })
     }
 
+    /// Per float column of the scene, whether the file keeps it.
+    pub fn float_mask(&self) -> &[bool] {
+        self.selection.float_mask()
+    }
+
     /// Sets the grid point written with the following rows (a sweep).
     pub fn set_point(&mut self, point: Option<u32>) -> Result<(), ParquetError> {
         self.flush()?;

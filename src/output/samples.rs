@@ -129,6 +129,12 @@ impl Selection {
             .map(|(i, (c, _))| (i, c))
     }
 
+    /// Per float column of [`sample_columns`], whether it is kept (for
+    /// [`SampleRows::fill_only`]).
+    pub fn float_mask(&self) -> &[bool] {
+        &self.keep_float
+    }
+
     /// A drop scene's law names (empty for a contact scene).
     pub fn laws(&self) -> &[String] {
         &self.laws
@@ -214,15 +220,19 @@ impl Floats {
     }
 }
 
-/// Fills float columns one after the other.
+/// Fills float columns one after the other (those not filled are skipped,
+/// their values never computed).
 struct Columns<'a> {
     floats: &'a mut Floats,
+    filled: &'a [bool],
     next: usize,
 }
 
 impl Columns<'_> {
     fn put(&mut self, values: impl Iterator<Item = f64>) {
-        self.floats.extend(self.next, values);
+        if self.filled[self.next] {
+            self.floats.extend(self.next, values);
+        }
         self.next += 1;
     }
 }
@@ -238,6 +248,9 @@ pub struct SampleRows {
     pub floats: Floats,
     /// Integer columns; each value fits its column's [`IntWidth`].
     pub ints: Vec<Vec<u16>>,
+    /// Which float columns are filled (the others stay empty: a selection
+    /// that leaves them out costs nothing for them).
+    filled: std::sync::Arc<[bool]>,
 }
 
 impl SampleRows {
@@ -247,7 +260,15 @@ impl SampleRows {
             law: Vec::new(),
             floats: Floats::new(precision, floats),
             ints: vec![Vec::new(); ints],
+            filled: vec![true; floats].into(),
         }
+    }
+
+    /// Fills only the float columns marked true (by position in
+    /// [`sample_columns`]).
+    pub fn fill_only(&mut self, filled: &[bool]) {
+        assert_eq!(filled.len(), self.filled.len(), "one flag per float column");
+        self.filled = filled.into();
     }
 
     /// Empty rows for a scene's columns.
@@ -260,9 +281,16 @@ impl SampleRows {
     /// per column instead of a doubling series of copies).
     pub fn reserve(&mut self, rows: usize) {
         self.index.reserve(rows);
+        let filled = self.filled.iter();
         match &mut self.floats {
-            Floats::F32(c) => c.iter_mut().for_each(|c| c.reserve(rows)),
-            Floats::F64(c) => c.iter_mut().for_each(|c| c.reserve(rows)),
+            Floats::F32(c) => c
+                .iter_mut()
+                .zip(filled)
+                .for_each(|(c, f)| c.reserve(rows * *f as usize)),
+            Floats::F64(c) => c
+                .iter_mut()
+                .zip(filled)
+                .for_each(|(c, f)| c.reserve(rows * *f as usize)),
         }
         self.ints.iter_mut().for_each(|c| c.reserve(rows));
     }
@@ -349,7 +377,8 @@ pub fn push_rows<T: Real, const N: usize>(
     // The orientation as a unit quaternion with w ≥ 0, from the matrix the
     // kernel used.
     let mut q = [[0.0f64; 4]; BLOCK];
-    for (s, q) in q.iter_mut().enumerate().take(count) {
+    let quaternion = rows.filled[..4].iter().any(|&f| f);
+    for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
         let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
         let r = DQuat::from_mat3(&a);
         let r = if r.w < 0.0 { -r } else { r };
@@ -357,6 +386,7 @@ pub fn push_rows<T: Real, const N: usize>(
     }
     let mut cols = Columns {
         floats: &mut rows.floats,
+        filled: &rows.filled,
         next: 0,
     };
     fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
@@ -479,6 +509,7 @@ impl SampleRows {
         let q = if q.w < 0.0 { -q } else { q };
         let mut cols = Columns {
             floats: &mut self.floats,
+            filled: &self.filled,
             next: 0,
         };
         let mut put = |v: f64| cols.put(std::iter::once(v));
