@@ -9,8 +9,8 @@
 //!
 //! Float columns are written at the run's precision with the
 //! `BYTE_STREAM_SPLIT` encoding (the bytes of each position together, which
-//! a fast codec compresses well), `sample` delta-encoded, and the small
-//! integer and string columns dictionary-encoded (RLE). Statistics are kept
+//! a fast codec compresses well), `sample` delta-encoded, the small integer
+//! columns plain, and `point` and `law` dictionary-encoded. Statistics are kept
 //! per row group and page, so readers can prune on `sample`, `bounce` and
 //! the like. The arrow-rs writer is used because polars' writer offers no
 //! float encoding but dictionary-then-plain and encodes one row group at a
@@ -196,9 +196,10 @@ impl SamplesWriter {
         let parquet = ArrowSchemaConverter::new()
             .with_coerce_types(props.coerce_types())
             .convert(&schema)?;
-        // A large buffer: the disk sees few, long writes.
+        // Page headers and footers gather in the buffer; pages (about
+        // 1 MB) are larger and go to the file without being copied into it.
         let out = SerializedFileWriter::new(
-            BufWriter::with_capacity(8 << 20, file),
+            BufWriter::with_capacity(64 << 10, file),
             parquet.root_schema_ptr(),
             props,
         )?;
@@ -487,7 +488,11 @@ fn properties(schema: &Schema, compression: Compression) -> WriterProperties {
             DataType::Float32 | DataType::Float64 => Encoding::BYTE_STREAM_SPLIT,
             // Consecutive sample numbers: deltas of 1 pack to almost nothing.
             DataType::UInt64 => Encoding::DELTA_BINARY_PACKED,
-            // Few distinct values: the dictionary (RLE) encoding.
+            // Bit sets and counts: plain, left to the codec. A dictionary
+            // made the files 1.5 % smaller and cost 12 % more CPU.
+            DataType::UInt8 | DataType::UInt16 => Encoding::PLAIN,
+            // `point` (one value per row group) and `law` (a few names):
+            // the dictionary (RLE) encoding.
             _ => continue,
         };
         b = b
