@@ -113,8 +113,13 @@ pub fn run_study(
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             n => n,
         };
+        staging.create("samples.parquet")?;
+        let path = staging
+            .temporary("samples.parquet")
+            .expect("just created")
+            .to_path_buf();
         let w = SamplesWriter::new(
-            staging.create("samples.parquet")?,
+            &path,
             selection,
             WriteOptions {
                 compression,

@@ -17,8 +17,7 @@
 //! time (docs/performance.md has the measurements).
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::path::Path;
 use std::sync::mpsc;
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
@@ -38,6 +37,7 @@ use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
 use rayon::prelude::*;
 
+use super::direct::DirectFile;
 use super::samples::{unit_of, Floats, IntWidth, SampleRows, Selection};
 use crate::config::Precision;
 
@@ -47,9 +47,10 @@ pub const ROW_GROUP: usize = 1 << 17;
 /// Row groups held (being encoded or written) per encoding thread.
 pub const IN_FLIGHT_PER_THREAD: usize = 2;
 
-/// Bytes written between two syncs of the file. Without them the kernel
-/// would hold a whole file of this size in its cache and write it only at
-/// the final sync, after the encoding, instead of during it.
+/// Bytes written between two syncs of a file written through the page
+/// cache. Without them the kernel would hold the whole file in its cache
+/// and write it only at the final sync, after the encoding, instead of
+/// during it.
 const SYNC_EVERY: usize = 64 << 20;
 
 /// The codec of `samples.parquet` (`[output] compression` and `level`).
@@ -190,19 +191,19 @@ pub struct SamplesWriter {
 }
 
 impl SamplesWriter {
-    pub fn new(file: File, selection: Selection, opts: WriteOptions) -> Result<Self, ParquetError> {
+    /// Writes to `path` (an existing, empty file).
+    pub fn new(
+        path: &Path,
+        selection: Selection,
+        opts: WriteOptions,
+    ) -> Result<Self, ParquetError> {
         let schema = Arc::new(schema_of(&selection, opts.sweep));
         let props = Arc::new(properties(&schema, opts.compression));
         let parquet = ArrowSchemaConverter::new()
             .with_coerce_types(props.coerce_types())
             .convert(&schema)?;
-        // Page headers and footers gather in the buffer; pages (about
-        // 1 MB) are larger and go to the file without being copied into it.
-        let out = SerializedFileWriter::new(
-            BufWriter::with_capacity(64 << 10, file),
-            parquet.root_schema_ptr(),
-            props,
-        )?;
+        let out =
+            SerializedFileWriter::new(DirectFile::open(path)?, parquet.root_schema_ptr(), props)?;
         let factory = Arc::new(ArrowRowGroupWriterFactory::new(&out, schema.clone()));
         let threads = opts.threads.max(1);
         let encoders = rayon::ThreadPoolBuilder::new()
@@ -388,7 +389,7 @@ fn encode(
 /// footer, and syncs the file. After an error it keeps taking row groups
 /// (and freeing their slots) without writing them, so nothing waits on it.
 fn write_in_order(
-    mut out: SerializedFileWriter<BufWriter<File>>,
+    mut out: SerializedFileWriter<DirectFile>,
     encoded: mpsc::Receiver<(usize, Encoded)>,
     slots: &Slots,
 ) -> Result<(), ParquetError> {
@@ -407,13 +408,11 @@ fn write_in_order(
                         chunk.append_to_row_group(&mut rg)?;
                     }
                     rg.close()?;
-                    // The disk writes while the next row groups are encoded,
-                    // not all at the end.
-                    if out.bytes_written() - synced >= SYNC_EVERY {
+                    // Through the page cache, the disk writes while the next
+                    // row groups are encoded, not all at the end.
+                    if !out.inner_mut().is_direct() && out.bytes_written() - synced >= SYNC_EVERY {
                         synced = out.bytes_written();
-                        let f = out.inner_mut();
-                        f.flush()?;
-                        f.get_ref().sync_data()?;
+                        out.inner_mut().sync_written()?;
                     }
                     Ok(())
                 });
@@ -425,11 +424,7 @@ fn write_in_order(
     if let Some(e) = failure {
         return Err(e);
     }
-    let file = out
-        .into_inner()?
-        .into_inner()
-        .map_err(|e| ParquetError::External(Box::new(e.into_error())))?;
-    file.sync_all()?;
+    out.into_inner()?.finish()?;
     Ok(())
 }
 

@@ -103,6 +103,15 @@ impl Staging {
         Ok(f)
     }
 
+    /// The temporary path of a file made by [`Staging::create`].
+    pub fn temporary(&self, name: &str) -> Option<&Path> {
+        let final_path = self.dir.join(name);
+        self.files
+            .iter()
+            .find(|(_, f)| *f == final_path)
+            .map(|(t, _)| t.as_path())
+    }
+
     /// Writes `name` through `write` and syncs it.
     pub fn write(
         &mut self,
