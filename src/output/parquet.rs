@@ -496,3 +496,48 @@ fn properties(schema: &Schema, compression: Compression) -> WriterProperties {
     }
     b.build()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::samples::{IntColumn, IntWidth};
+
+    fn selection() -> Selection {
+        let ints = vec![IntColumn {
+            name: "flags".into(),
+            width: IntWidth::U16,
+        }];
+        Selection::new(vec!["a".into(), "b".into()], ints, Precision::F32, None).unwrap()
+    }
+
+    fn rows(first: u64, n: usize) -> SampleRows {
+        let mut r = SampleRows::new(Precision::F32, 2, 1);
+        r.index.extend(first..first + n as u64);
+        r.push_test_columns(n);
+        r
+    }
+
+    /// A disk that fills up mid-file (`/dev/full`) is an error from the
+    /// writer, reported by `push` or `finish`, not a hang or a panic.
+    #[test]
+    fn a_full_disk_is_an_error_not_a_hang() {
+        let full = Path::new("/dev/full");
+        if !full.exists() {
+            return;
+        }
+        let opts = WriteOptions {
+            compression: Compression::None,
+            threads: 2,
+            sweep: false,
+        };
+        let run = || -> Result<u64, ParquetError> {
+            let mut w = SamplesWriter::new(full, selection(), opts)?;
+            for b in 0..40 {
+                w.push(rows(b * 65_536, 65_536))?;
+            }
+            w.finish()
+        };
+        let err = run().expect_err("written to a full disk");
+        assert!(err.to_string().contains("No space left"), "{err}");
+    }
+}

@@ -202,22 +202,6 @@ impl Floats {
             Floats::F64(c) => c[k].extend(values),
         }
     }
-
-    fn append(&mut self, other: &Floats) {
-        match (self, other) {
-            (Floats::F32(a), Floats::F32(b)) => a.iter_mut().zip(b).for_each(|(a, b)| a.extend(b)),
-            (Floats::F64(a), Floats::F64(b)) => a.iter_mut().zip(b).for_each(|(a, b)| a.extend(b)),
-            _ => unreachable!("rows of one run share a precision"),
-        }
-    }
-
-    /// Column `k` as f64 (for tests and checks).
-    pub fn column_f64(&self, k: usize) -> Vec<f64> {
-        match self {
-            Floats::F32(c) => c[k].iter().map(|&v| v as f64).collect(),
-            Floats::F64(c) => c[k].clone(),
-        }
-    }
 }
 
 /// Fills float columns one after the other (those not filled are skipped,
@@ -303,13 +287,19 @@ impl SampleRows {
         self.index.is_empty()
     }
 
-    /// Appends `other`'s rows.
-    pub fn append(&mut self, other: &SampleRows) {
-        self.index.extend_from_slice(&other.index);
-        self.law.extend_from_slice(&other.law);
-        self.floats.append(&other.floats);
-        for (a, b) in self.ints.iter_mut().zip(&other.ints) {
-            a.extend_from_slice(b);
+    /// Fills every column with `n` made-up values (for the writer's tests).
+    #[cfg(test)]
+    pub(crate) fn push_test_columns(&mut self, n: usize) {
+        let k = match &self.floats {
+            Floats::F32(c) => c.len(),
+            Floats::F64(c) => c.len(),
+        };
+        for c in 0..k {
+            self.floats
+                .extend(c, (0..n).map(|i| (i * (c + 1)) as f64 * 0.5));
+        }
+        for c in &mut self.ints {
+            c.extend((0..n).map(|i| (i % 7) as u16));
         }
     }
 }
