@@ -12,9 +12,15 @@
 //! a fast codec compresses well), `sample` delta-encoded, the small integer
 //! columns plain, and `point` and `law` dictionary-encoded. Statistics are kept
 //! per row group and page, so readers can prune on `sample`, `bounce` and
-//! the like. The arrow-rs writer is used because polars' writer offers no
-//! float encoding but dictionary-then-plain and encodes one row group at a
-//! time (docs/performance.md has the measurements).
+//! the like. The file is written around the page cache where it can be
+//! ([`DirectFile`]).
+//!
+//! The arrow-rs writer is used rather than polars': it offers
+//! `BYTE_STREAM_SPLIT` (files 10 % smaller at LZ4 for the same encoding
+//! speed) and hands out column writers per row group, so row groups encode
+//! on other threads while one thread writes; polars' batched writer encodes
+//! and writes in the calling thread (docs/performance.md has the
+//! measurements).
 
 use std::collections::BTreeMap;
 use std::path::Path;
