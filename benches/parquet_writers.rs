@@ -24,14 +24,16 @@ use polars::prelude::*;
 
 const ROWS: u64 = 1 << 17;
 
-/// The engine's rows: names, f32 columns, u16 columns, sample numbers.
-fn rows() -> (
-    Vec<String>,
-    Vec<Vec<f32>>,
-    Vec<String>,
-    Vec<Vec<u16>>,
-    Vec<u64>,
-) {
+/// The engine's rows, gathered into whole columns.
+struct Rows {
+    float_names: Vec<String>,
+    floats: Vec<Vec<f32>>,
+    int_names: Vec<String>,
+    ints: Vec<Vec<u16>>,
+    index: Vec<u64>,
+}
+
+fn rows() -> Rows {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/corner3.toml");
     let scene = load_scene(
         &path,
@@ -68,12 +70,23 @@ fn rows() -> (
             a.extend(b);
         }
     }
-    let inames = inames.into_iter().map(|c| c.name).collect();
-    (fnames, floats, inames, ints, index)
+    Rows {
+        float_names: fnames,
+        floats,
+        int_names: inames.into_iter().map(|c| c.name).collect(),
+        ints,
+        index,
+    }
 }
 
 fn writers(c: &mut Criterion) {
-    let (fnames, floats, inames, ints, index) = rows();
+    let Rows {
+        float_names: fnames,
+        floats,
+        int_names: inames,
+        ints,
+        index,
+    } = rows();
     let mut g = c.benchmark_group("parquet_writers");
     g.throughput(Throughput::Elements(ROWS));
     g.sample_size(10)
