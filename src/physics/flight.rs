@@ -241,13 +241,13 @@ pub fn time_of_impact(
     // A plane the body starts on and leaves (just after an impact) is not an
     // impact; it is armed again once clear of the tolerance, and an impact
     // if it turns back toward the body while still within it.
-    let mut armed: Vec<bool> = planes
-        .iter()
-        .map(|p| {
-            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
-            g.distance > tolerance || g.normal_velocity(p, m.velocity, m.omega) < 0.0
-        })
-        .collect();
+    // (A bit per plane: no allocation per flight.)
+    assert!(planes.len() <= 64, "at most 64 planes in flight");
+    let mut armed = planes.iter().enumerate().fold(0u64, |bits, (i, p)| {
+        let g = ContactGeometry::new(body, m.rotation, m.centre, p);
+        let on = g.distance > tolerance || g.normal_velocity(p, m.velocity, m.omega) < 0.0;
+        bits | (on as u64) << i
+    });
     for iterations in 0..100_000u32 {
         let mut hit = false;
         // Each plane bounds its own step: its gap closes at most at
@@ -255,12 +255,12 @@ pub fn time_of_impact(
         // wall's normal only), so a plane the body moves away from does not
         // hold the others back.
         let mut dt = f64::INFINITY;
-        for (p, a) in planes.iter().zip(armed.iter_mut()) {
+        for (i, p) in planes.iter().enumerate() {
             let g = ContactGeometry::new(body, m.rotation, m.centre, p);
-            if !*a && g.distance > tolerance {
-                *a = true;
+            if g.distance > tolerance {
+                armed |= 1 << i;
             }
-            let gap = if *a {
+            let gap = if armed >> i & 1 == 1 {
                 hit |= g.distance <= tolerance;
                 g.distance - 0.5 * tolerance
             } else {

@@ -1,7 +1,9 @@
 //! The exact torque-free motion of a triaxial rigid body (Landau &
 //! Lifshitz, Mechanics §37): the body angular velocity in Jacobi elliptic
 //! functions, and the attitude in closed form through the incomplete
-//! elliptic integral of the third kind (Carlson's symmetric forms).
+//! elliptic integral of the third kind: its complete value and the initial
+//! phase by Carlson's symmetric forms, once per motion, and its value at
+//! any time by Jacobi's theta series ([`ThetaPhase`]).
 //!
 //! Axes are relabelled (by a proper rotation) so that the body turns about
 //! axis 3: I₁ < I₂ < I₃ when M² ≥ 2E·I₂, else I₁ > I₂ > I₃. With the
@@ -214,15 +216,15 @@ pub struct TorqueFree {
     tau0: f64,
     /// 2K, the period of sn² in τ.
     two_k: f64,
-    /// Π(−ν) complete, and Π(−ν; am τ₀).
-    pi_complete: f64,
-    pi0: f64,
-    nu: f64,
-    m: f64,
     jacobi: Jacobi,
-    /// M/I₃ and M(I₃ − I₁)/(I₁ I₃ λ).
+    /// Π(−ν; am τ) in theta form.
+    phase: ThetaPhase,
+    /// The precession angle's secular rate, `M/I₃ + swing · (Π(−ν)/K) λ`,
+    /// its periodic amplitude, `swing · S`, and the periodic part at τ₀
+    /// (`swing = M(I₃ − I₁)/(I₁ I₃ λ)`).
     rate: f64,
-    swing: f64,
+    amplitude: f64,
+    periodic0: f64,
     /// A steady rotation (about a principal axis, or none): ω constant.
     steady: Option<DVec3>,
     /// Within [`SEPARATRIX`] of the separatrix, RK4 at this step instead.
@@ -301,13 +303,11 @@ impl TorqueFree {
             lambda: 0.0,
             tau0: 0.0,
             two_k: 0.0,
-            pi_complete: 0.0,
-            pi0: 0.0,
-            nu: 0.0,
-            m: 0.0,
             jacobi: Jacobi::new(0.0),
+            phase: ThetaPhase::default(),
             rate: 0.0,
-            swing: 0.0,
+            amplitude: 0.0,
+            periodic0: 0.0,
             steady: None,
             rk4_step: None,
             rotation0: rotation,
@@ -359,7 +359,8 @@ impl TorqueFree {
         let d_r = (1.0 - m * s_r * s_r).max(0.0);
         let f_r = s_r * carlson_rf(c_r * c_r, d_r, 1.0);
         let tau0 = 2.0 * turns * k_complete + f_r;
-        let pi0 = 2.0 * turns * pi_complete + pi_partial(s_r, c_r, d_r, nu);
+        let phase = ThetaPhase::new(m, nu, k_complete, pi_complete);
+        let swing = big_m * (i3 - i1) / (i1 * i3 * lambda);
         let l0 = i * wp / big_m;
         tf.base = r0 * to_pole(l0).transpose();
         tf.amp = amp;
@@ -368,13 +369,12 @@ impl TorqueFree {
         tf.lambda = lambda;
         tf.tau0 = tau0;
         tf.two_k = 2.0 * k_complete;
-        tf.pi_complete = pi_complete;
-        tf.pi0 = pi0;
-        tf.nu = nu;
-        tf.m = m;
         tf.jacobi = jacobi;
-        tf.rate = big_m / i3;
-        tf.swing = big_m * (i3 - i1) / (i1 * i3 * lambda);
+        tf.rate = big_m / i3 + swing * phase.slope * lambda;
+        tf.amplitude = swing * phase.s;
+        // τ₀ − f_r is a whole number of periods of the periodic part.
+        tf.periodic0 = phase.periodic(f_r);
+        tf.phase = phase;
         tf
     }
 
@@ -411,16 +411,106 @@ impl TorqueFree {
             self.sign2 * self.amp.y * sn,
             self.sign3 * self.amp.z * d,
         );
-        let pi = 2.0 * turns * self.pi_complete
-            + pi_partial(s, c, (1.0 - self.m * s * s).max(0.0), self.nu);
-        let phi = self.rate * t + self.swing * (pi - self.pi0);
+        // φ − φ₀ = M t/I₃ + swing · [Π(−ν; am τ) − Π(−ν; am τ₀)], the
+        // secular part of Π folded into `rate`.
+        let phi = self.rate * t + self.amplitude * (self.phase.periodic(tau_r) - self.periodic0);
         let lp = self.inertia * wp;
         let r = self.base * rot_z(phi) * to_pole(lp / lp.length());
         (r * self.perm, self.perm.transpose() * wp)
     }
 }
 
-/// Π(−ν; φ) for |φ| ≤ π/2 given sin φ, cos φ and 1 − k² sin²φ:
+/// Most terms of a [`ThetaPhase`] series: enough for q ≤ 0.55, that is for
+/// every orbit the closed form is used on (1 − k² ≥ [`SEPARATRIX`]).
+const THETA_TERMS: usize = 12;
+
+/// `Π(−ν; am u)` for any real `u` in Jacobi's theta form (Whittaker &
+/// Watson §22.74, with the imaginary parameter of a negative
+/// characteristic):
+///
+/// `Π(−ν; am u) = (Π(−ν)/K) u + S · arg Θ(u + iβ)`,
+///
+/// where `Θ(u) = θ₄(πu/2K, q)`, `q = exp(−πK′/K)`, `sc(β, k′) = √ν/k` and
+/// `S = sn β cn β / dn β = √ν / √((k² + ν)(1 + ν))`. The argument is
+/// periodic in u with period 2K and its series,
+/// `Θ(u + iβ) = 1 + Σₙ 2(−1)ⁿ qⁿ² [cos 2nv cosh 2nw − i sin 2nv sinh 2nw]`
+/// (`v = πu/2K`, `w = πβ/2K`), converges like `q^{n(n−1)}`: with
+/// `γ = K′ − β = F(atan(1/√ν) | 1 − k²)` (so that no cancellation enters),
+/// `qⁿ² e^{±2nw} = exp(−(π/K)(K′n² ∓ n(K′ − γ)))`. Each evaluation is one
+/// `sin_cos`, a recurrence over a dozen terms and one `atan2`, with no
+/// data-dependent loop: what Carlson's duplication needed for every pose.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ThetaPhase {
+    /// π/(2K): u → v.
+    scale: f64,
+    /// Π(−ν)/K.
+    slope: f64,
+    s: f64,
+    terms: usize,
+    /// 2(−1)ⁿ qⁿ² cosh 2nw and 2(−1)ⁿ qⁿ² sinh 2nw, n = 1, 2, …
+    re: [f64; THETA_TERMS],
+    im: [f64; THETA_TERMS],
+}
+
+impl ThetaPhase {
+    /// For parameter m = k² ∈ (0, 1) and ν > 0, given K(m) and Π(−ν | m).
+    pub fn new(m: f64, nu: f64, k_complete: f64, pi_complete: f64) -> Self {
+        let mc = 1.0 - m;
+        let k_prime = carlson_rf(0.0, m, 1.0);
+        // γ = F(ψ | 1 − m) with tan ψ = 1/√ν.
+        let (sin_psi, cos2_psi) = (1.0 / (1.0 + nu).sqrt(), nu / (1.0 + nu));
+        let gamma = sin_psi * carlson_rf(cos2_psi, 1.0 - mc * sin_psi * sin_psi, 1.0);
+        let beta = k_prime - gamma;
+        let r = std::f64::consts::PI / k_complete;
+        let mut s = Self {
+            scale: 0.5 * r,
+            slope: pi_complete / k_complete,
+            s: (nu / ((m + nu) * (1.0 + nu))).sqrt(),
+            terms: 0,
+            re: [0.0; THETA_TERMS],
+            im: [0.0; THETA_TERMS],
+        };
+        for n in 1..=THETA_TERMS {
+            let nf = n as f64;
+            let up = (-r * (k_prime * nf * nf - nf * beta)).exp();
+            let down = (-r * (k_prime * nf * nf + nf * beta)).exp();
+            let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+            s.re[n - 1] = sign * (up + down);
+            s.im[n - 1] = sign * (up - down);
+            s.terms = n;
+            if up < 1e-18 {
+                break;
+            }
+        }
+        s
+    }
+
+    /// The periodic part, `arg Θ(u + iβ)` (period 2K in u).
+    #[inline]
+    pub fn periodic(&self, u: f64) -> f64 {
+        let (s1, c1) = (2.0 * self.scale * u).sin_cos();
+        let (mut re, mut im) = (1.0, 0.0);
+        let (mut c_prev, mut s_prev) = (1.0, 0.0);
+        let (mut c, mut s) = (c1, s1);
+        for n in 0..self.terms {
+            re += self.re[n] * c;
+            im -= self.im[n] * s;
+            let (cn, sn) = (2.0 * c1 * c - c_prev, 2.0 * c1 * s - s_prev);
+            (c_prev, s_prev, c, s) = (c, s, cn, sn);
+        }
+        im.atan2(re)
+    }
+
+    /// `Π(−ν; am u)` (the motion uses its two parts apart).
+    #[cfg(test)]
+    pub fn value(&self, u: f64) -> f64 {
+        self.slope * u + self.s * self.periodic(u)
+    }
+}
+
+/// Π(−ν; φ) for |φ| ≤ π/2 given sin φ, cos φ and 1 − k² sin²φ (what the
+/// theta form is tested against):
+#[cfg(test)]
 /// `s R_F(c², Δ², 1) − (ν/3) s³ R_J(c², Δ², 1, 1 + ν s²)`.
 fn pi_partial(s: f64, c: f64, delta2: f64, nu: f64) -> f64 {
     if s == 0.0 {
@@ -476,6 +566,68 @@ mod tests {
                 rel(a, rf) < 1e-14 && rel(b, rj) < 1e-14,
                 "{x} {y} {z} {p}: {a} {b}"
             );
+        }
+    }
+
+    /// Π(−ν | m) and K(m) for the tests, from Carlson's forms.
+    fn complete(m: f64, nu: f64) -> (f64, f64) {
+        let (k, rj) = carlson_rf_rj(0.0, 1.0 - m, 1.0, 1.0 + nu);
+        (k, k - nu / 3.0 * rj)
+    }
+
+    /// The theta form of Π(−ν; am u) against `∫₀ᵘ dv / (1 + ν sn² v)` by
+    /// mpmath's quadrature at 30 digits (`mp.quad` with `mp.ellipfun`,
+    /// split at multiples of K, at the exact binary values of the f64
+    /// inputs: near the separatrix Π moves by 10⁴ times a change of m), from
+    /// m near 0 to the separatrix switch and ν from 10⁻³ to 10⁶.
+    #[test]
+    fn theta_phase_matches_quadrature() {
+        for (m, nu, u, want) in [
+            (1e-6, 0.2, 1.3, 1.2073581950497012),
+            (0.3, 8.4, -2.1, -0.57696087681107417),
+            (0.5, 1e6, 0.77, 0.0015698890771730242),
+            (0.7, 1e-3, 40.0, 39.97684025538245),
+            (0.99, 300.0, -9.5, -0.29254383661887602),
+            (0.9999, 0.001, -5.9117, -5.906792649808501),
+            (0.9999, 8.4, 12.25, 2.2663896348018595),
+            (0.9999989, 0.001, -58.99, -58.938059583552172),
+            (0.9999989, 8.4, 31.0, 4.4471479697732643),
+            (0.9999989, 1e6, -3.0, -0.001572789783139142),
+        ] {
+            let (k, pc) = complete(m, nu);
+            let got = ThetaPhase::new(m, nu, k, pc).value(u);
+            assert!(
+                (got - want).abs() <= 4e-15 * want.abs().max(1.0),
+                "m {m} nu {nu} u {u}: {got} vs {want}"
+            );
+        }
+    }
+
+    /// The theta form against Carlson's (the reduced amplitude plus whole
+    /// half-periods) over a grid, where Carlson's form is accurate
+    /// (m ≤ 0.99: nearer the separatrix, sn at |u| ≈ K loses digits and the
+    /// quadrature test above decides).
+    #[test]
+    fn theta_phase_matches_carlson() {
+        for m in [1e-6, 0.01, 0.3, 0.7, 0.99] {
+            let jac = Jacobi::new(m);
+            for nu in [1e-3, 0.2, 1.0, 8.4, 300.0, 1e6] {
+                let (k, pc) = complete(m, nu);
+                let th = ThetaPhase::new(m, nu, k, pc);
+                for i in -60..=60 {
+                    let u = i as f64 * 0.37 * k / 3.0;
+                    let turns = (u / (2.0 * k)).round();
+                    let (s, c, _) = jac.sncndn(u - turns * 2.0 * k);
+                    let want =
+                        2.0 * turns * pc + pi_partial(s, c, (1.0 - m * s * s).max(0.0), nu);
+                    let got = th.value(u);
+                    let scale = pc.abs().max(1.0) * (1.0 + turns.abs());
+                    assert!(
+                        (got - want).abs() <= 1e-13 * scale,
+                        "m {m} nu {nu} u {u}: {got} vs {want}"
+                    );
+                }
+            }
         }
     }
 
