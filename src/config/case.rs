@@ -46,6 +46,30 @@ pub struct PlaneInput {
     pub normal: [f64; 3],
     pub offset: f64,
     pub restitution: f64,
+    /// Coulomb coefficient μ ≥ 0 (absent: 0).
+    #[serde(
+        default,
+        deserialize_with = "friction_value",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub friction: Option<f64>,
+}
+
+/// `friction` as a number; anything else is an error that names the field
+/// (serde's own message would not).
+fn friction_value<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Number {
+        Real(f64),
+        Other(serde_json::Value),
+    }
+    match Number::deserialize(d)? {
+        Number::Real(x) => Ok(Some(x)),
+        Number::Other(v) => Err(serde::de::Error::custom(format!(
+            "planes[].friction must be a number ≥ 0, got {v}"
+        ))),
+    }
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
@@ -55,6 +79,9 @@ pub enum LawInput {
     Newton,
     Poisson,
     Pgs { sweeps: u32 },
+    /// Energetic restitution with Darboux–Keller integration (one touching
+    /// plane).
+    Stronge,
 }
 
 impl From<LawInput> for Law {
@@ -64,6 +91,7 @@ impl From<LawInput> for Law {
             LawInput::Newton => Law::Newton,
             LawInput::Poisson => Law::Poisson,
             LawInput::Pgs { sweeps } => Law::Pgs { sweeps },
+            LawInput::Stronge => Law::Stronge,
         }
     }
 }
@@ -186,11 +214,14 @@ impl Case {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
+                Plane::new(p.normal, p.offset, p.restitution)
+                    .and_then(|q| q.with_friction(p.friction.unwrap_or(0.0)))
+                    .map_err(|e| {
                     let field = match e {
                         crate::physics::PlaneError::Normal(_) => "normal",
                         crate::physics::PlaneError::Offset(_) => "offset",
                         crate::physics::PlaneError::Restitution(_) => "restitution",
+                        crate::physics::PlaneError::Friction(_) => "friction",
                     };
                     FieldError::new(format!("planes[{i}].{field}"), e.to_string())
                 })
@@ -286,6 +317,19 @@ pub struct ContactOutput {
     /// Impulse λ (N·s).
     pub impulse: f64,
     pub normal_velocity_after: f64,
+    /// Tangential impulse `f = P − λn`, world frame (N·s); zero without
+    /// friction.
+    #[serde(default)]
+    pub tangential_impulse: [f64; 3],
+    /// Active (λ > 0) and `|c⁺_t| ≤ 1e-9 ×` the velocity scale (the larger
+    /// of `|v| + L|ω|` before and after). In expected files, absent or
+    /// null means not compared.
+    #[serde(default)]
+    pub sticking: Option<bool>,
+    /// `|c⁺_t|`, the contact point's tangential speed after (m/s). Extra
+    /// field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sliding_speed_after: Option<f64>,
     /// Lever arm ρ in the body frame (m). Extra field.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lever_arm: Option<[f64; 3]>,
@@ -320,6 +364,9 @@ pub struct CaseOutput {
 
 impl CaseOutput {
     fn new(case: &Case, o: &ImpactOutcome) -> Self {
+        let length = case.body.length_scale();
+        let vscale = (case.state.velocity.length() + length * case.state.omega.length())
+            .max(o.after.velocity.length() + length * o.after.omega.length());
         let contacts = o
             .contacts
             .iter()
@@ -333,6 +380,9 @@ impl CaseOutput {
                 normal_velocity_before: c.normal_velocity_before,
                 impulse: c.impulse,
                 normal_velocity_after: c.normal_velocity_after,
+                tangential_impulse: c.tangential_impulse.to_array(),
+                sticking: Some(c.impulse > 0.0 && c.sliding_after <= 1e-9 * vscale),
+                sliding_speed_after: Some(c.sliding_after),
                 lever_arm: Some(c.geometry.lever.to_array()),
                 support_distance: Some(c.geometry.support),
             })
@@ -343,6 +393,8 @@ impl CaseOutput {
             (o.flags.degenerate, "degenerate"),
             (o.flags.jammed, "jammed"),
             (o.flags.unsolved, "unsolved"),
+            (o.flags.ambiguous, "ambiguous"),
+            (o.flags.unconverged, "unconverged"),
         ] {
             if on {
                 flags.push(name.to_string());

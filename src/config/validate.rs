@@ -114,6 +114,7 @@ fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
                 crate::physics::PlaneError::Normal(_) => "normal",
                 crate::physics::PlaneError::Offset(_) => "offset",
                 crate::physics::PlaneError::Restitution(_) => "restitution",
+                crate::physics::PlaneError::Friction(_) => "friction",
             };
             bad(&["planes", &idx, f], e.to_string())
         })?;

@@ -44,7 +44,8 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 out.status[s] = geo.status[s];
             }
         }
-        Law::Newton => {
+        // Without friction, stronge is newton.
+        Law::Newton | Law::Stronge => {
             // q in `vn_after`, which `post` then overwrites: a local array
             // cost a memset per block (LLVM zeroes it before the loop).
             let q = &mut out.vn_after;

@@ -3,6 +3,7 @@
 
 use glam::{DMat3, DVec3};
 
+use super::friction;
 use super::lcp::{solve_lcp, MAX_LCP_CONTACTS};
 use super::{
     inverse_inertance, kinetic_energy, smallest_eigenvalue_scaled, ContactGeometry, Ellipsoid,
@@ -30,6 +31,10 @@ pub enum Law {
     /// Law 4, projected Gauss–Seidel on law 2: `sweeps` sweeps from λ = 0,
     /// contacts in index order.
     Pgs { sweeps: u32 },
+    /// Energetic restitution (friction.md, law 4): Darboux–Keller
+    /// integration in the normal impulse, one touching contact. Without
+    /// friction it is `newton`.
+    Stronge,
 }
 
 impl Law {
@@ -41,6 +46,7 @@ impl Law {
             Law::Newton => "newton".into(),
             Law::Poisson => "poisson".into(),
             Law::Pgs { sweeps } => format!("pgs{sweeps}"),
+            Law::Stronge => "stronge".into(),
         }
     }
 }
@@ -73,8 +79,14 @@ pub struct Flags {
     pub jammed: bool,
     /// No LCP candidate met the conditions even after the plastic fallback;
     /// the least-violating impulses were used (never expected for a
-    /// physically consistent pose).
+    /// physically consistent pose). With friction: a single-contact solve
+    /// found no valid case, or a Darboux–Keller impact never ended.
     pub unsolved: bool,
+    /// With friction: a single-contact solve had several valid solutions.
+    pub ambiguous: bool,
+    /// With friction: neither Newton's Gauss–Seidel nor its plastic
+    /// re-solve converged; the frictionless `newton` result was used.
+    pub unconverged: bool,
 }
 
 /// One plane's part of an impact.
@@ -89,6 +101,10 @@ pub struct ContactOutcome {
     /// Impulse λ (N·s), zero for contacts not touching.
     pub impulse: f64,
     pub normal_velocity_after: f64,
+    /// Tangential impulse `f = P − λn` (world, N·s); zero without friction.
+    pub tangential_impulse: DVec3,
+    /// `|c⁺_t|`, the contact point's tangential speed after (m/s).
+    pub sliding_after: f64,
 }
 
 /// Outcome of one impact.
@@ -110,6 +126,10 @@ pub struct ImpactOutcome {
 pub enum ImpactError {
     #[error("{0} planes touch at once; the exact LCP solver handles at most {MAX_LCP_CONTACTS}")]
     TooManyContacts(usize),
+    #[error("law stronge takes one touching plane; planes {0:?} touch at once")]
+    StrongeSeveral(Vec<usize>),
+    #[error("law poisson is not defined with friction; touching plane {plane} has friction {mu}")]
+    PoissonFriction { plane: usize, mu: f64 },
 }
 
 /// `v⁺ = v + Σλ_i n_i/m`, `ω⁺ = ω + J⁻¹ Σλ_i ρ_i` (physics.md, "Contact
@@ -158,6 +178,16 @@ pub fn solve_impact(
     if touching.len() > MAX_LCP_CONTACTS {
         return Err(ImpactError::TooManyContacts(touching.len()));
     }
+    if law == Law::Stronge && touching.len() > 1 {
+        return Err(ImpactError::StrongeSeveral(touching));
+    }
+    let rough = touching.iter().find(|&&i| planes[i].friction() > 0.0);
+    if let (Law::Poisson, Some(&plane)) = (law, rough) {
+        return Err(ImpactError::PoissonFriction {
+            plane,
+            mu: planes[plane].friction(),
+        });
+    }
     let normals: Vec<DVec3> = touching.iter().map(|&i| planes[i].normal()).collect();
     let levers: Vec<DVec3> = touching.iter().map(|&i| geometry[i].lever).collect();
     let k: Vec<f64> = touching.iter().map(|&i| planes[i].restitution()).collect();
@@ -168,21 +198,74 @@ pub fn solve_impact(
     let min_eigenvalue = smallest_eigenvalue_scaled(&g);
     flags.degenerate = min_eigenvalue < DEGENERATE_EIGEN_THRESHOLD;
 
-    let lambda = match law {
-        Law::Paper => paper(&g, &v, &k),
-        Law::Newton => newton(&g, &v, &k, &mut flags),
-        Law::Poisson => poisson(&g, &v, &k, &mut flags),
-        Law::Pgs { sweeps } => pgs(&g, &newton_q(&v, &k), sweeps),
+    let mut tangential = vec![DVec3::ZERO; touching.len()];
+    let (lambda, after) = if rough.is_some() {
+        // Friction on a touching plane: the laws of friction.md.
+        let ct = friction::Contacts::new(
+            body,
+            pose.rotation,
+            state.velocity,
+            state.omega,
+            &touching
+                .iter()
+                .map(|&i| geometry[i].body_point)
+                .collect::<Vec<_>>(),
+            normals.clone(),
+            touching.iter().map(|&i| planes[i].friction()).collect(),
+            k.clone(),
+        );
+        let mut s = match law {
+            Law::Paper => friction::paper(&ct),
+            Law::Newton => friction::newton(&ct),
+            Law::Pgs { sweeps } => friction::pgs(&ct, sweeps),
+            Law::Stronge => friction::stronge(&ct),
+            Law::Poisson => unreachable!("poisson with friction is refused above"),
+        };
+        if s.unconverged {
+            let mut ignored = Flags::default();
+            let lambda = newton(&g, &v, &k, &mut ignored);
+            s.impulses = normals.iter().zip(&lambda).map(|(n, l)| *n * *l).collect();
+        }
+        flags.ambiguous = s.ambiguous;
+        flags.unsolved = s.unsolved;
+        flags.jammed = s.jammed;
+        flags.unconverged = s.unconverged;
+        let mut linear = DVec3::ZERO;
+        let mut angular = DVec3::ZERO;
+        let mut lambda = Vec::with_capacity(touching.len());
+        for (t, (&i, p)) in touching.iter().zip(&s.impulses).enumerate() {
+            linear += *p;
+            angular += geometry[i]
+                .body_point
+                .cross(pose.rotation.transpose() * *p);
+            let l = normals[t].dot(*p);
+            lambda.push(l);
+            tangential[t] = *p - normals[t] * l;
+        }
+        let after = State {
+            velocity: state.velocity + linear / body.mass(),
+            omega: state.omega + angular / body.inertia(),
+        };
+        (lambda, after)
+    } else {
+        let lambda = match law {
+            Law::Paper => paper(&g, &v, &k),
+            Law::Newton | Law::Stronge => newton(&g, &v, &k, &mut flags),
+            Law::Poisson => poisson(&g, &v, &k, &mut flags),
+            Law::Pgs { sweeps } => pgs(&g, &newton_q(&v, &k), sweeps),
+        };
+        let after = apply_impulses(body, state, &normals, &levers, &lambda);
+        (lambda, after)
     };
-
-    let after = apply_impulses(body, state, &normals, &levers, &lambda);
     let energy_before = kinetic_energy(body, state.velocity, state.omega);
     let energy_after = kinetic_energy(body, after.velocity, after.omega);
     flags.energy_gain = energy_after > energy_before * (1.0 + ENERGY_GAIN_RELATIVE);
 
     let mut impulse = vec![0.0; planes.len()];
-    for (&i, &l) in touching.iter().zip(&lambda) {
+    let mut tangential_impulse = vec![DVec3::ZERO; planes.len()];
+    for ((&i, &l), &f) in touching.iter().zip(&lambda).zip(&tangential) {
         impulse[i] = l;
+        tangential_impulse[i] = f;
     }
     let contacts = (0..planes.len())
         .map(|i| {
@@ -198,6 +281,13 @@ pub fn solve_impact(
                     after.velocity,
                     after.omega,
                 ),
+                tangential_impulse: tangential_impulse[i],
+                sliding_after: {
+                    let n = planes[i].normal();
+                    let c = after.velocity
+                        + pose.rotation * after.omega.cross(geometry[i].body_point);
+                    (c - n * n.dot(c)).length()
+                },
             }
         })
         .collect();

@@ -8,6 +8,7 @@ mod body;
 mod compliant;
 mod contact;
 mod flight;
+pub mod friction;
 mod laws;
 mod lcp;
 mod linalg;

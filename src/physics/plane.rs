@@ -12,15 +12,19 @@ pub enum PlaneError {
     Offset(f64),
     #[error("restitution must be in [0, 1], got {0}")]
     Restitution(f64),
+    #[error("friction must be a finite number ≥ 0, got {0}")]
+    Friction(f64),
 }
 
-/// A validated plane: unit normal `n`, offset `e` (m) and coefficient of
-/// restitution `k ∈ [0, 1]`.
+/// A validated plane: unit normal `n`, offset `e` (m), coefficient of
+/// restitution `k ∈ [0, 1]` and Coulomb coefficient `μ ≥ 0` (0 unless set
+/// with [`Plane::with_friction`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plane {
     normal: DVec3,
     offset: f64,
     restitution: f64,
+    friction: f64,
 }
 
 impl Plane {
@@ -50,7 +54,24 @@ impl Plane {
             normal: scaled / len,
             offset: offset / scale / len,
             restitution,
+            friction: 0.0,
         })
+    }
+
+    /// The same plane with Coulomb coefficient `mu` (finite, ≥ 0).
+    pub fn with_friction(self, mu: f64) -> Result<Self, PlaneError> {
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(PlaneError::Friction(mu));
+        }
+        Ok(Self {
+            friction: mu,
+            ..self
+        })
+    }
+
+    /// Coulomb coefficient `μ`.
+    pub fn friction(&self) -> f64 {
+        self.friction
     }
 
     /// Unit normal, pointing into the free half-space.
