@@ -56,7 +56,9 @@ fn friction_golden_cases() {
         let result = solve(&e.input);
         if e.expect_error {
             match result {
-                Ok(_) => r.failures.push(format!("{id}: accepted, expected an error")),
+                Ok(_) => r
+                    .failures
+                    .push(format!("{id}: accepted, expected an error")),
                 Err(msg) => {
                     let lower = msg.to_lowercase();
                     for word in &e.error_mentions {
@@ -78,7 +80,13 @@ fn friction_golden_cases() {
             }
         };
         let x = e.expected.as_ref().expect("an expected output");
-        compare(&mut r, id, &got, x, e.tolerance.as_ref().expect("tolerances"));
+        compare(
+            &mut r,
+            id,
+            &got,
+            x,
+            e.tolerance.as_ref().expect("tolerances"),
+        );
         for flag in &x.flags {
             r.require(
                 id,

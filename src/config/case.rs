@@ -78,7 +78,9 @@ pub enum LawInput {
     Paper,
     Newton,
     Poisson,
-    Pgs { sweeps: u32 },
+    Pgs {
+        sweeps: u32,
+    },
     /// Energetic restitution with Darboux–Keller integration (one touching
     /// plane).
     Stronge,
@@ -217,14 +219,14 @@ impl Case {
                 Plane::new(p.normal, p.offset, p.restitution)
                     .and_then(|q| q.with_friction(p.friction.unwrap_or(0.0)))
                     .map_err(|e| {
-                    let field = match e {
-                        crate::physics::PlaneError::Normal(_) => "normal",
-                        crate::physics::PlaneError::Offset(_) => "offset",
-                        crate::physics::PlaneError::Restitution(_) => "restitution",
-                        crate::physics::PlaneError::Friction(_) => "friction",
-                    };
-                    FieldError::new(format!("planes[{i}].{field}"), e.to_string())
-                })
+                        let field = match e {
+                            crate::physics::PlaneError::Normal(_) => "normal",
+                            crate::physics::PlaneError::Offset(_) => "offset",
+                            crate::physics::PlaneError::Restitution(_) => "restitution",
+                            crate::physics::PlaneError::Friction(_) => "friction",
+                        };
+                        FieldError::new(format!("planes[{i}].{field}"), e.to_string())
+                    })
             })
             .collect::<Result<Vec<_>, _>>()?;
         if let LawInput::Pgs { sweeps: 0 } = input.law {

@@ -78,7 +78,12 @@ fn poly_roots(a: &[C]) -> Vec<C> {
     let deg = a.len() - 1;
     let lead = a[deg];
     let monic: Vec<C> = a.iter().map(|&x| x.div(lead)).collect();
-    let eval = |z: C| monic.iter().rev().fold(C(0.0, 0.0), |acc, &c| acc.mul(z).add(c));
+    let eval = |z: C| {
+        monic
+            .iter()
+            .rev()
+            .fold(C(0.0, 0.0), |acc, &c| acc.mul(z).add(c))
+    };
     // Start on a circle of the roots' size (Cauchy's bound), off the axes.
     let radius = 1.0 + monic[..deg].iter().map(|c| c.abs()).fold(0.0, f64::max);
     let mut z: Vec<C> = (0..deg)
@@ -103,7 +108,7 @@ fn poly_roots(a: &[C]) -> Vec<C> {
             z[i] = z[i].sub(step);
             moved = moved.max(step.abs() / z[i].abs().max(1.0));
         }
-        if moved < 1e-17 {
+        if moved < 1e-15 {
             break;
         }
     }
@@ -180,7 +185,10 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
         let dir = t1 * co + t2 * s;
         let lambda = -a / d;
         let p = lambda * (n - mu * dir);
-        if slides.iter().any(|(q, _)| (*q - p).length() <= 1e-9 * p.length()) {
+        if slides
+            .iter()
+            .any(|(q, _)| (*q - p).length() <= 1e-9 * p.length())
+        {
             continue;
         }
         let after = c + *w * p;
@@ -271,10 +279,12 @@ fn slide_angles(f: &dyn Fn(f64) -> f64) -> Vec<f64> {
             }
         }
         let th = best.1;
-        if out
-            .iter()
-            .all(|&o| (((o - th) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI).abs() > 1e-12)
-        {
+        if out.iter().all(|&o| {
+            (((o - th) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI)
+                .abs()
+                > 1e-12
+        }) {
             out.push(th);
         }
     }
@@ -377,9 +387,9 @@ fn gauss_seidel(ct: &Contacts, sweeps: Option<u32>, plastic: bool) -> (Solved, b
         let mut moved = 0f64;
         for i in 0..n {
             let mut c = ct.before[i];
-            for j in 0..n {
+            for (j, pj) in p.iter().enumerate() {
                 if j != i {
-                    c += ct.w[i][j] * p[j];
+                    c += ct.w[i][j] * *pj;
                 }
             }
             let s = single_contact(
@@ -687,8 +697,8 @@ pub fn stronge(ct: &Contacts) -> Solved {
                 path.wtt[0][0] * s[0] + path.wtt[0][1] * s[1],
                 path.wtt[1][0] * s[0] + path.wtt[1][1] * s[1],
             ];
-            let fall = -(s[0] * (path.wt[0] - path.mu * m_s[0])
-                + s[1] * (path.wt[1] - path.mu * m_s[1]));
+            let fall =
+                -(s[0] * (path.wt[0] - path.mu * m_s[0]) + s[1] * (path.wt[1] - path.mu * m_s[1]));
             if fall > 0.0 {
                 h = h.min(m / fall);
             }

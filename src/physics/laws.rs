@@ -235,9 +235,7 @@ pub fn solve_impact(
         let mut lambda = Vec::with_capacity(touching.len());
         for (t, (&i, p)) in touching.iter().zip(&s.impulses).enumerate() {
             linear += *p;
-            angular += geometry[i]
-                .body_point
-                .cross(pose.rotation.transpose() * *p);
+            angular += geometry[i].body_point.cross(pose.rotation.transpose() * *p);
             let l = normals[t].dot(*p);
             lambda.push(l);
             tangential[t] = *p - normals[t] * l;
@@ -284,8 +282,8 @@ pub fn solve_impact(
                 tangential_impulse: tangential_impulse[i],
                 sliding_after: {
                     let n = planes[i].normal();
-                    let c = after.velocity
-                        + pose.rotation * after.omega.cross(geometry[i].body_point);
+                    let c =
+                        after.velocity + pose.rotation * after.omega.cross(geometry[i].body_point);
                     (c - n * n.dot(c)).length()
                 },
             }
