@@ -72,6 +72,7 @@ fn plane(name: &str, normal: [f64; 3], offset: f64, k: f64) -> RawPlane {
         normal,
         offset,
         restitution: k,
+        friction: None,
     }
 }
 

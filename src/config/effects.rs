@@ -19,6 +19,9 @@ pub struct Effects {
     /// An LCP couples the contacts (false with one touching plane, or when
     /// G is diagonal by geometry: a sphere on mutually orthogonal planes).
     pub coupled_contacts: bool,
+    /// Coulomb friction on a plane that can take an impact (a touching
+    /// plane; any plane of a drop scene).
+    pub friction: bool,
     /// Flight under gravity before and between impacts.
     pub flight: bool,
     pub gravity: f64,
@@ -291,9 +294,15 @@ impl Effects {
         } else {
             touching.len() > 1 && !(sphere && orthogonal)
         };
+        let friction = if flight {
+            planes.iter().any(|p| p.plane.friction() > 0.0)
+        } else {
+            touching.iter().any(|&i| planes[i].plane.friction() > 0.0)
+        };
         Ok(Self {
             rotational_coupling: !sphere,
             coupled_contacts: coupled,
+            friction,
             flight,
             gravity,
             bounces,
@@ -326,6 +335,7 @@ impl Effects {
         for (name, x) in [
             ("rotational coupling", self.rotational_coupling),
             ("coupled contacts (LCP)", self.coupled_contacts),
+            ("friction", self.friction),
             ("flight", self.flight),
             ("per-sample rows", self.per_sample),
         ] {

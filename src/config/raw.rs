@@ -134,6 +134,9 @@ pub struct RawPlane {
     pub normal: [f64; 3],
     pub offset: f64,
     pub restitution: f64,
+    /// Coulomb coefficient μ ≥ 0 (absent: 0, frictionless).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]

@@ -49,6 +49,16 @@ pub fn set_path(root: &mut toml::Value, path: &str, value: f64) -> Result<(), St
             _ => (*seg, None),
         };
         cur = match cur {
+            // A plane's friction may be absent (μ = 0): a sweep sets it.
+            toml::Value::Table(t)
+                if si + 1 == segments.len()
+                    && index.is_none()
+                    && key == "friction"
+                    && !t.contains_key(key) =>
+            {
+                t.insert(key.into(), toml::Value::Float(value));
+                return Ok(());
+            }
             toml::Value::Table(t) => t.get_mut(key).ok_or_else(|| format!("no field {key:?}"))?,
             toml::Value::Array(a) => {
                 // An array of tables addressed by the element's `name`.
@@ -190,6 +200,9 @@ mod tests {
         set_path(&mut v, "body.semi_axes[2]", 4.0).unwrap();
         set_path(&mut v, "planes[0].restitution", 0.3).unwrap();
         assert_eq!(v["planes"][0]["restitution"].as_float(), Some(0.3));
+        set_path(&mut v, "planes.floor.friction", 0.4).unwrap();
+        assert_eq!(v["planes"][0]["friction"].as_float(), Some(0.4));
+        assert!(set_path(&mut v, "planes.floor.frction", 0.4).is_err());
         set_path(&mut v, "planes.floor.restitution", 0.2).unwrap();
         assert_eq!(v["body"]["semi_axes"][2].as_float(), Some(4.0));
         assert_eq!(v["planes"][0]["restitution"].as_float(), Some(0.2));

@@ -33,12 +33,13 @@ fn finite3(path: &[&str], v: [f64; 3]) -> Result<DVec3, Bad> {
     }
 }
 
-/// Parses `paper`, `newton`, `poisson`, `pgsN`.
+/// Parses `paper`, `newton`, `poisson`, `stronge`, `pgsN`.
 pub fn parse_law(s: &str) -> Option<Law> {
     match s {
         "paper" => Some(Law::Paper),
         "newton" => Some(Law::Newton),
         "poisson" => Some(Law::Poisson),
+        "stronge" => Some(Law::Stronge),
         _ => {
             let n: u32 = s.strip_prefix("pgs")?.parse().ok()?;
             (n >= 1).then_some(Law::Pgs { sweeps: n })
@@ -82,7 +83,9 @@ fn laws(raw: &RawScene) -> Result<Vec<Law>, Bad> {
         let law = parse_law(s).ok_or_else(|| {
             bad(
                 &["laws", &idx],
-                format!("unknown law {s:?}; expected paper, newton, poisson or pgsN (N ≥ 1)"),
+                format!(
+                    "unknown law {s:?}; expected paper, newton, poisson, stronge or pgsN (N ≥ 1)"
+                ),
             )
         })?;
         if laws.contains(&law) {
@@ -109,15 +112,17 @@ fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
     let mut planes: Vec<NamedPlane> = Vec::new();
     for (i, p) in raw.planes.iter().enumerate() {
         let idx = i.to_string();
-        let plane = Plane::new(p.normal, p.offset, p.restitution).map_err(|e| {
-            let f = match e {
-                crate::physics::PlaneError::Normal(_) => "normal",
-                crate::physics::PlaneError::Offset(_) => "offset",
-                crate::physics::PlaneError::Restitution(_) => "restitution",
-                crate::physics::PlaneError::Friction(_) => "friction",
-            };
-            bad(&["planes", &idx, f], e.to_string())
-        })?;
+        let plane = Plane::new(p.normal, p.offset, p.restitution)
+            .and_then(|q| q.with_friction(p.friction.unwrap_or(0.0)))
+            .map_err(|e| {
+                let f = match e {
+                    crate::physics::PlaneError::Normal(_) => "normal",
+                    crate::physics::PlaneError::Offset(_) => "offset",
+                    crate::physics::PlaneError::Restitution(_) => "restitution",
+                    crate::physics::PlaneError::Friction(_) => "friction",
+                };
+                bad(&["planes", &idx, f], e.to_string())
+            })?;
         if p.name.is_empty() || p.name.contains('+') {
             return Err(bad(
                 &["planes", &idx, "name"],
@@ -306,6 +311,7 @@ impl Scene {
         };
         let orientation = orientation(&raw)?;
         let effects = Effects::derive(&raw, &body, &planes, &touching, drop.is_some(), tolerance)?;
+        Self::check_laws_with_friction(&laws, &planes, &touching, drop.is_some())?;
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
         Self::check_ranges(&body, precision, velocity, angular_velocity, length_scale)?;
@@ -332,6 +338,56 @@ impl Scene {
             angular_velocity,
             raw,
         })
+    }
+
+    /// The laws a scene's planes allow (friction.md): `poisson` is not
+    /// defined with friction on a plane that can take an impact; `stronge`
+    /// takes one touching plane, and does not run in drop scenes (where
+    /// several planes can meet at an impact).
+    fn check_laws_with_friction(
+        laws: &[Law],
+        planes: &[NamedPlane],
+        touching: &[usize],
+        drop: bool,
+    ) -> Result<(), Bad> {
+        let position = |law: Law| laws.iter().position(|&l| l == law).unwrap_or(0).to_string();
+        let impacting: Vec<usize> = if drop {
+            (0..planes.len()).collect()
+        } else {
+            touching.to_vec()
+        };
+        if laws.contains(&Law::Poisson) {
+            if let Some(&i) = impacting
+                .iter()
+                .find(|&&i| planes[i].plane.friction() > 0.0)
+            {
+                return Err(bad(
+                    &["laws", &position(Law::Poisson)],
+                    format!(
+                        "law poisson is not defined with friction, and plane {:?} has friction {}; use newton, paper, pgsN or stronge",
+                        planes[i].name,
+                        planes[i].plane.friction()
+                    ),
+                ));
+            }
+        }
+        if laws.contains(&Law::Stronge) {
+            let at = position(Law::Stronge);
+            if drop {
+                return Err(bad(
+                    &["laws", &at],
+                    "law stronge does not run in drop scenes (several planes can meet at an impact there); use newton, paper or pgsN",
+                ));
+            }
+            if touching.len() > 1 {
+                let names: Vec<&str> = touching.iter().map(|&i| planes[i].name.as_str()).collect();
+                return Err(bad(
+                    &["laws", &at],
+                    format!("law stronge takes one touching plane; the placement touches planes {names:?}"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Refuses scenes whose quantities overflow or underflow the kernel's

@@ -126,7 +126,7 @@ pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: boo
         &mut work.geo,
         &mut work.outs,
     );
-    fallback(scene, sampler, laws, first, work, count);
+    fallback(scene, sampler, laws, first, work, count, Some(&mut *acc));
     block_stats(
         &work.geo,
         &work.outs,
@@ -152,7 +152,17 @@ pub(crate) fn fallback<T: Real, const N: usize>(
     first: u64,
     work: &mut Work<T, N>,
     count: usize,
+    mut acc: Option<&mut RunAcc>,
 ) {
+    // With friction on a touching plane every lane is solved by the f64
+    // reference, which has the frictional laws.
+    if scene.effects().friction {
+        for out in work.outs.iter_mut() {
+            for st in &mut out.status[..count] {
+                *st |= crate::kernel::RECOMPUTE;
+            }
+        }
+    }
     let extra_planes = scene.planes().len() > N;
     if extra_planes {
         check_extra_planes(scene, &work.inputs, &mut work.geo, count);
@@ -181,13 +191,14 @@ pub(crate) fn fallback<T: Real, const N: usize>(
             }
         }
     }
-    for (law, out) in laws.iter().zip(work.outs.iter_mut()) {
+    for (l, (law, out)) in laws.iter().zip(work.outs.iter_mut()).enumerate() {
         if extra_planes {
             // Extra-plane checks landed in geo.status after the lane passes.
             for s in 0..count {
                 out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
             }
         }
-        recompute(scene, *law, &work.inputs, out, count);
+        let friction = acc.as_deref_mut().and_then(|a| a.laws[l].friction.as_mut());
+        recompute(scene, *law, &work.inputs, out, count, friction);
     }
 }

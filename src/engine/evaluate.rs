@@ -54,7 +54,7 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             &mut work.geo,
             &mut work.outs,
         );
-        fallback(scene, &sampler, &[law], start, &mut work, n);
+        fallback(scene, &sampler, &[law], start, &mut work, n, None);
         let o = &work.outs[0];
         let x = &work.inputs;
         for s in 0..n {

@@ -99,9 +99,12 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     // Orientations feed the rotational terms and the per-sample rows only,
     // and the kernel reads only the rows of A its planes need; per-sample
     // rows and planes outside the placement read the whole matrix.
-    let whole = sink.is_some() || scene.planes().len() > N;
+    // The f64 reference that solves a frictional scene reads the whole
+    // orientation (a sphere's ω turns by friction too).
+    let friction = scene.effects().friction;
+    let whole = sink.is_some() || scene.planes().len() > N || friction;
     let sampler = Sampler::new(scene)
-        .with_orientation(ROT || sink.is_some())
+        .with_orientation(ROT || sink.is_some() || friction)
         .with_matrix_rows(if whole {
             ALL_ROWS
         } else {
@@ -122,7 +125,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
         let mut work = pool.take(|| Work::new(laws));
-        let mut part = accs.take(|| RunAcc::new(laws, N));
+        let mut part = accs.take(|| RunAcc::shaped(Shape::of(scene)));
         let lo = b * batch;
         let hi = (lo + batch).min(total);
         let mut rows = want_rows.then(|| {

@@ -255,6 +255,16 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             format!("rebound_{name}"),
             json(&StatSummary::from_stat(&acc.rebound[i])),
         );
+        if let Some(fr) = &acc.friction {
+            stats.insert(
+                format!("tangential_impulse_{name}"),
+                json(&StatSummary::from_stat(&fr.tangential_impulse[i])),
+            );
+            stats.insert(
+                format!("sliding_speed_{name}"),
+                json(&StatSummary::from_stat(&fr.sliding_speed[i])),
+            );
+        }
     }
     let mut fractions = Map::new();
     let mut cis = Map::new();
@@ -270,6 +280,19 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         let (p, ci) = proportion(k, acc.samples);
         fractions.insert(name.into(), json(&p));
         cis.insert(name.into(), json(&ci));
+    }
+    if let Some(fr) = &acc.friction {
+        for (name, k) in [("ambiguous", fr.ambiguous), ("unconverged", fr.unconverged)] {
+            let (p, ci) = proportion(k, acc.samples);
+            fractions.insert(name.into(), json(&p));
+            cis.insert(name.into(), json(&ci));
+        }
+        // Of the plane's active contacts, those that end sticking.
+        for (i, name) in contacts.iter().enumerate() {
+            let (p, ci) = proportion(fr.sticking[i], fr.active[i]);
+            fractions.insert(format!("sticking_{name}"), json(&p));
+            cis.insert(format!("sticking_{name}"), json(&ci));
+        }
     }
     let mut active = Map::new();
     for (mask, &k) in acc.active_sets.iter().enumerate() {
@@ -459,6 +482,20 @@ impl Summary {
                 })
                 .collect();
             let _ = writeln!(s, "  active sets: {}", sets.join("  "));
+            if all.fractions.contains_key("ambiguous") {
+                let sticking: Vec<String> = self
+                    .contacts
+                    .iter()
+                    .map(|c| format!("{c} {:.4}", frac(&format!("sticking_{c}"))))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "  friction: active contacts ending stuck: {}; ambiguous {:.2e}, unconverged {:.2e}",
+                    sticking.join(", "),
+                    frac("ambiguous"),
+                    frac("unconverged")
+                );
+            }
             if let Some(d) = self.drops.get(law) {
                 drop_text(&mut s, d);
             }

@@ -42,11 +42,11 @@ fn with_point_columns(
 
 /// The statistic columns of the summary table, with their units.
 fn stat_units(name: &str) -> &'static str {
-    if name.starts_with("impulse_") {
+    if name.starts_with("impulse_") || name.starts_with("tangential_impulse_") {
         "N*s"
     } else if name.starts_with("omega") {
         "rad/s"
-    } else if name.starts_with("velocity") {
+    } else if name.starts_with("velocity") || name.starts_with("sliding_speed_") {
         "m/s"
     } else {
         "1"

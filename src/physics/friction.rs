@@ -501,7 +501,7 @@ impl Path {
         let df = match mode {
             Mode::Slide => {
                 let ct = self.ct(p, f);
-                let m = ct[0].hypot(ct[1]);
+                let m = (ct[0] * ct[0] + ct[1] * ct[1]).sqrt();
                 if m > 0.0 {
                     [-self.mu * ct[0] / m, -self.mu * ct[1] / m]
                 } else {
@@ -631,11 +631,86 @@ impl Path {
     }
 }
 
+/// The rest of a Darboux–Keller path from `(p, y)` with `dF/dp = g` fixed:
+/// `c_n(p + q) = c_n + α q` and `work(p + q) = work + c_n q + ½ α q²`,
+/// `α = W_nn + w_t·g`. Compression ends at `c_n = 0`; restitution where the
+/// work reaches its target (`E_c` absorbed, `e² E_c` returned), or where
+/// `c_n` falls to zero again. `None` if compression never ends (α ≤ 0).
+fn linear_end(
+    path: &Path,
+    p: f64,
+    y: [f64; 3],
+    g: [f64; 2],
+    end_work: Option<f64>,
+    e2: f64,
+) -> Option<(f64, [f64; 3])> {
+    let alpha = path.w_nn + path.wt[0] * g[0] + path.wt[1] * g[1];
+    let at = |q: f64, y: [f64; 3], cn: f64| {
+        [
+            y[0] + g[0] * q,
+            y[1] + g[1] * q,
+            y[2] + cn * q + 0.5 * alpha * q * q,
+        ]
+    };
+    let (mut p, mut y) = (p, y);
+    let mut cn = path.cn(p, [y[0], y[1]]);
+    let target = match end_work {
+        Some(t) => t,
+        None => {
+            if cn < 0.0 {
+                if !(alpha > 0.0) {
+                    return None;
+                }
+                let q = -cn / alpha;
+                y = at(q, y, cn);
+                p += q;
+                cn = 0.0;
+            }
+            if e2 == 0.0 {
+                return Some((p, y));
+            }
+            // E_c = −work at the end of compression.
+            y[2] - e2 * y[2]
+        }
+    };
+    // Restitution: cn q + ½ α q² = target − work, q ≥ 0, without
+    // cancellation; c_n may reach zero first when α < 0.
+    let need = (target - y[2]).max(0.0);
+    let q_work = if alpha == 0.0 {
+        if cn > 0.0 {
+            need / cn
+        } else {
+            f64::INFINITY
+        }
+    } else {
+        let disc = cn * cn + 2.0 * alpha * need;
+        if disc < 0.0 {
+            f64::INFINITY
+        } else {
+            2.0 * need / (cn + disc.sqrt())
+        }
+    };
+    let q_zero = if alpha < 0.0 {
+        -cn / alpha
+    } else {
+        f64::INFINITY
+    };
+    let q = q_work.min(q_zero);
+    if !q.is_finite() {
+        return None;
+    }
+    Some((p + q, at(q, y, cn)))
+}
+
 /// `stronge` for one touching contact: Darboux–Keller integration in the
-/// normal impulse p (Dormand–Prince 5(4), local error 1e-14 of the impulse
-/// scale per step, events located by bisection on the step), through
-/// slide, stick and resumed slip, compression (`c_n` reaches 0 at `p_c`,
-/// absorbing `E_c`) and restitution (until `∫_{p_c} c_n dp = k² E_c`).
+/// normal impulse p through slide, stick and resumed slip, compression
+/// (`c_n` reaches 0 at `p_c`, absorbing `E_c`) and restitution (until
+/// `∫_{p_c} c_n dp = k² E_c`). Slip is integrated by Dormand–Prince 5(4)
+/// at a local error of 1e-13 of the impulse scale per step, each step
+/// aimed at where the slip would stop and never carried through it, the
+/// events of the step located by regula falsi; once the slip has stopped
+/// (sticking, or resumed along its one ray) the rest of the path is linear
+/// in p and finished in closed form.
 pub fn stronge(ct: &Contacts) -> Solved {
     assert_eq!(ct.len(), 1, "stronge takes one contact");
     let n = ct.normals[0];
@@ -665,7 +740,7 @@ pub fn stronge(ct: &Contacts) -> Solved {
     let vs = ct.vscale.max(path.cn0.abs());
     // The frictionless compression impulse sets the scale of p.
     let p_scale = -path.cn0 / path.w_nn;
-    let tol = 1e-14;
+    let tol = 1e-13;
     let mut mode = if path.ct(0.0, [0.0; 2]).iter().all(|x| x.abs() <= 1e-13 * vs) {
         path.at_rest()
     } else {
@@ -675,92 +750,133 @@ pub fn stronge(ct: &Contacts) -> Solved {
     let mut h = p_scale / 64.0;
     // None while compressing; then the work at which restitution ends.
     let mut end_work: Option<f64> = None;
-    let work_c = |e_c: f64, w_c: f64| w_c + e2 * e_c;
     let mut ended = false;
+    let (mut smallest, mut stalled) = (f64::INFINITY, 0);
     for _ in 0..2_000_000 {
-        if mode == Mode::Slide {
-            let c = path.ct(p, [y[0], y[1]]);
-            let m = c[0].hypot(c[1]);
-            // Slip has stopped. Aimed steps land on zero to rounding when
-            // the slip keeps its direction; a turning slip approaches it
-            // in ever shorter aimed steps, stopped at 1e-12 of the
-            // velocity scale (an error of that order in the result).
-            if m <= 1e-12 * vs {
-                mode = path.at_rest();
-                continue;
+        let dir = match mode {
+            Mode::Slide => None,
+            Mode::Ray(s) => Some([-path.mu * s[0], -path.mu * s[1]]),
+            Mode::Stick(g) => Some(g),
+        };
+        if let Some(g) = dir {
+            // Stick and resumed slip keep dF/dp fixed for the rest of the
+            // impact: c_n and the work are linear and quadratic in p, and
+            // the events are roots in closed form.
+            match linear_end(&path, p, y, g, end_work, e2) {
+                Some((q, yq)) => {
+                    p = q;
+                    y = yq;
+                    ended = true;
+                }
+                None => ended = false,
             }
-            // Aim at where |c_t| would reach zero at its present rate of
-            // fall: exact when the slip keeps its direction (planar motion,
-            // spheres), and repeated as the direction turns.
-            let s = [c[0] / m, c[1] / m];
-            let m_s = [
-                path.wtt[0][0] * s[0] + path.wtt[0][1] * s[1],
-                path.wtt[1][0] * s[0] + path.wtt[1][1] * s[1],
-            ];
-            let fall =
-                -(s[0] * (path.wt[0] - path.mu * m_s[0]) + s[1] * (path.wt[1] - path.mu * m_s[1]));
-            if fall > 0.0 {
-                h = h.min(m / fall);
-            }
+            break;
+        }
+        let c = path.ct(p, [y[0], y[1]]);
+        let m = (c[0] * c[0] + c[1] * c[1]).sqrt();
+        // Slip has stopped. Aimed steps land on zero to rounding when the
+        // slip keeps its direction; a turning slip approaches it in ever
+        // shorter aimed steps, stopped at 1e-12 of the velocity scale (an
+        // error of that order in the result).
+        // A turning slip can also spiral into zero, each aimed step
+        // covering a few per cent of the way, down to where the
+        // integration's own error makes it chatter: stopped when eight
+        // accepted steps in a row no longer shrink it.
+        if m < 0.999 * smallest {
+            smallest = m;
+            stalled = 0;
+        }
+        if m <= 1e-12 * vs || (stalled >= 8 && m <= 1e-6 * vs) {
+            mode = path.at_rest();
+            continue;
+        }
+        // Aim at where |c_t| would reach zero at its present rate of fall:
+        // exact when the slip keeps its direction (planar motion, spheres),
+        // and repeated as the direction turns.
+        let s = [c[0] / m, c[1] / m];
+        let m_s = [
+            path.wtt[0][0] * s[0] + path.wtt[0][1] * s[1],
+            path.wtt[1][0] * s[0] + path.wtt[1][1] * s[1],
+        ];
+        let fall =
+            -(s[0] * (path.wt[0] - path.mu * m_s[0]) + s[1] * (path.wt[1] - path.mu * m_s[1]));
+        if fall > 0.0 {
+            h = h.min(m / fall);
         }
         let (y1, err) = path.step(mode, p, y, h);
-        let e = (err[0].hypot(err[1]) / p_scale).max(err[2].abs() / (p_scale * vs));
+        let e = ((err[0] * err[0] + err[1] * err[1]).sqrt() / p_scale)
+            .max(err[2].abs() / (p_scale * vs));
         if e > tol {
             h *= (0.9 * (tol / e).powf(0.2)).max(0.2);
             continue;
         }
+        // A step must not carry the slip through zero (where its direction
+        // jumps and the error estimate is blind): shorter, until it ends
+        // short of zero and the next aimed step lands on it.
+        let c1 = path.ct(p + h, [y1[0], y1[1]]);
+        if c[0] * c1[0] + c[1] * c1[1] < 0.0 {
+            h *= 0.5;
+            continue;
+        }
         // The event of this phase, as a function that turns ≥ 0.
         let event = |q: f64, yq: [f64; 3]| -> f64 {
+            let cn = path.cn(q, [yq[0], yq[1]]);
             match end_work {
-                None => path.cn(q, [yq[0], yq[1]]),
-                Some(target) => {
-                    let cn = path.cn(q, [yq[0], yq[1]]);
-                    if cn < 0.0 {
-                        // c_n turned negative again: the impact ends.
-                        1.0
-                    } else {
-                        (yq[2] - target) / (p_scale * vs)
-                    }
-                }
+                None => cn / vs,
+                // c_n turning negative again also ends the impact.
+                Some(target) => ((yq[2] - target) / (p_scale * vs)).max(-cn / vs),
             }
         };
-        if event(p + h, y1) >= 0.0 {
-            // Bisect the step length to the event.
+        let e1 = event(p + h, y1);
+        if e1 >= 0.0 {
+            // The step length to the event by regula falsi (Illinois).
             let (mut lo, mut hi) = (0.0, h);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
+            let (mut f_lo, mut f_hi) = (event(p, y), e1);
+            let mut side = 0;
+            for _ in 0..100 {
+                if hi - lo <= 1e-15 * hi {
                     break;
                 }
-                if event(p + mid, path.step(mode, p, y, mid).0) >= 0.0 {
+                let mut mid = hi - f_hi * (hi - lo) / (f_hi - f_lo);
+                if !(mid > lo && mid < hi) {
+                    mid = 0.5 * (lo + hi);
+                }
+                let f_mid = event(p + mid, path.step(mode, p, y, mid).0);
+                if f_mid >= 0.0 {
                     hi = mid;
+                    f_hi = f_mid;
+                    if side == 1 {
+                        f_lo *= 0.5;
+                    }
+                    side = 1;
                 } else {
                     lo = mid;
+                    f_lo = f_mid;
+                    if side == -1 {
+                        f_hi *= 0.5;
+                    }
+                    side = -1;
                 }
             }
-            let ye = path.step(mode, p, y, hi).0;
+            y = path.step(mode, p, y, hi).0;
             p += hi;
-            y = ye;
-            match end_work {
-                None => {
-                    // End of compression: E_c = −∫₀^{p_c} c_n dp.
-                    let e_c = -y[2];
-                    if e2 == 0.0 {
-                        ended = true;
-                        break;
-                    }
-                    end_work = Some(work_c(e_c, y[2]));
-                    h = p_scale / 64.0;
-                    continue;
-                }
-                Some(_) => {
+            if end_work.is_none() && path.cn(p, [y[0], y[1]]) >= 0.0 {
+                // End of compression: E_c = −∫₀^{p_c} c_n dp; restitution
+                // returns e² of it.
+                if e2 == 0.0 {
                     ended = true;
                     break;
                 }
+                end_work = Some(y[2] - e2 * y[2]);
+                h = p_scale / 64.0;
+                continue;
             }
+            ended = true;
+            break;
         }
         p += h;
         y = y1;
+        stalled += 1;
         let grow = if e > 0.0 {
             (0.9 * (tol / e).powf(0.2)).min(5.0)
         } else {

@@ -43,6 +43,36 @@ pub struct LawAcc {
     pub rebound: Vec<Stat>,
     /// Per active set: moments of the three post-impact statistics.
     pub groups: Vec<GroupAcc>,
+    /// Friction statistics, in scenes with friction only.
+    pub friction: Option<FrictionAcc>,
+}
+
+/// One law's friction statistics (friction.md, "What the engine reports").
+#[derive(Debug, Clone, Default)]
+pub struct FrictionAcc {
+    /// Samples with several valid single-contact solutions, and samples
+    /// where neither Gauss–Seidel converged.
+    pub ambiguous: u64,
+    pub unconverged: u64,
+    /// Per touching plane, over impacting samples (zeros included): |f|.
+    pub tangential_impulse: Vec<Stat>,
+    /// Per touching plane, over its active contacts (λ > 0): `|c⁺_t|`.
+    pub sliding_speed: Vec<Stat>,
+    /// Per touching plane: active contacts, and those that end sticking.
+    pub active: Vec<u64>,
+    pub sticking: Vec<u64>,
+}
+
+impl FrictionAcc {
+    fn new(contacts: usize) -> Self {
+        Self {
+            tangential_impulse: vec![Stat::default(); contacts],
+            sliding_speed: vec![Stat::default(); contacts],
+            active: vec![0; contacts],
+            sticking: vec![0; contacts],
+            ..Self::default()
+        }
+    }
 }
 
 /// Paired differences `law − laws[0]` on the same impacting samples.
@@ -72,6 +102,8 @@ pub struct Shape {
     pub contacts: usize,
     /// `effects.bounces` of a drop scene; 0 for a contact scene.
     pub bounces: usize,
+    /// Friction statistics are kept (a contact scene with friction).
+    pub friction: bool,
 }
 
 impl Shape {
@@ -85,12 +117,13 @@ impl Shape {
             } else {
                 0
             },
+            friction: !drop && scene.effects().friction,
         }
     }
 }
 
 impl LawAcc {
-    fn new(contacts: usize) -> Self {
+    fn new(contacts: usize, friction: bool) -> Self {
         Self {
             samples: 0,
             impacts: 0,
@@ -107,6 +140,7 @@ impl LawAcc {
             impulse: vec![Stat::default(); contacts],
             rebound: vec![Stat::default(); contacts],
             groups: vec![GroupAcc::default(); 1 << contacts],
+            friction: friction.then(|| FrictionAcc::new(contacts)),
         }
     }
 }
@@ -118,6 +152,7 @@ impl RunAcc {
             laws,
             contacts,
             bounces: 0,
+            friction: false,
         })
     }
 
@@ -126,9 +161,10 @@ impl RunAcc {
             laws,
             contacts,
             bounces,
+            friction,
         } = shape;
         Self {
-            laws: (0..laws).map(|_| LawAcc::new(contacts)).collect(),
+            laws: (0..laws).map(|_| LawAcc::new(contacts, friction)).collect(),
             pairs: vec![PairAcc::default(); laws.saturating_sub(1)],
             drops: if bounces == 0 {
                 Vec::new()
@@ -248,6 +284,29 @@ impl RunAcc {
             }
             for (i, s) in l.rebound.iter_mut().enumerate() {
                 stat(f, &|| format!("{}.rebound.{i}", law()), s);
+            }
+            if let Some(fr) = &mut l.friction {
+                let friction = || format!("{}.friction", law());
+                f(
+                    &|| format!("{}.ambiguous", friction()),
+                    Slot::Count(&mut fr.ambiguous),
+                );
+                f(
+                    &|| format!("{}.unconverged", friction()),
+                    Slot::Count(&mut fr.unconverged),
+                );
+                for (i, s) in fr.tangential_impulse.iter_mut().enumerate() {
+                    stat(f, &|| format!("{}.tangential_impulse.{i}", friction()), s);
+                }
+                for (i, s) in fr.sliding_speed.iter_mut().enumerate() {
+                    stat(f, &|| format!("{}.sliding_speed.{i}", friction()), s);
+                }
+                for (i, c) in fr.active.iter_mut().enumerate() {
+                    f(&|| format!("{}.active.{i}", friction()), Slot::Count(c));
+                }
+                for (i, c) in fr.sticking.iter_mut().enumerate() {
+                    f(&|| format!("{}.sticking.{i}", friction()), Slot::Count(c));
+                }
             }
             for (m, g) in l.groups.iter_mut().enumerate() {
                 let group = || format!("{}.groups.{m}", law());
