@@ -213,13 +213,31 @@ pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFr
     )
 }
 
-/// Stacks the frames of the grid points, in point order.
+/// Stacks the frames of the grid points, in point order. Points may differ
+/// in their columns (a sweep over friction from 0: only the points with
+/// friction have its statistics): every frame gets the union of the
+/// columns, in order of first appearance, nulls where it has none.
 fn stack_points(
     frames: impl Iterator<Item = Result<DataFrame, PolarsError>>,
 ) -> Result<DataFrame, PolarsError> {
+    let frames = frames.collect::<Result<Vec<_>, _>>()?;
+    let mut columns: Vec<(PlSmallStr, DataType)> = Vec::new();
+    for df in &frames {
+        for c in df.columns() {
+            if !columns.iter().any(|(n, _)| n == c.name()) {
+                columns.push((c.name().clone(), c.dtype().clone()));
+            }
+        }
+    }
     let mut out: Option<DataFrame> = None;
-    for df in frames {
-        let df = df?;
+    for mut df in frames {
+        for (name, dtype) in &columns {
+            if df.column(name).is_err() {
+                let nulls = Column::full_null(name.clone(), df.height(), dtype);
+                df.with_column(nulls)?;
+            }
+        }
+        let df = df.select(columns.iter().map(|(n, _)| n.clone()))?;
         out = Some(match out {
             None => df,
             Some(mut acc) => {

@@ -1,0 +1,158 @@
+//! Friction in scenes: planes with μ = 0 leave today's kernel and results
+//! untouched bit for bit; a frictional floor gives the energy ratios
+//! friction.md's independent oracle reports, the friction statistics, and
+//! the same bits for any thread count; a sweep can turn friction on; laws
+//! a scene's friction rules out are refused, naming the law and the plane.
+
+mod support;
+
+use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::engine::{run, RunOptions};
+use impactmc::output::summary::Summary;
+use support::{repo, tmpdir};
+
+/// A shipped scene with text edits, loaded with `samples` and `laws`.
+fn edited(
+    name: &str,
+    edits: &[(&str, &str)],
+    samples: u64,
+    laws: &[&str],
+) -> Result<Scene, String> {
+    let mut text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
+    for (a, b) in edits {
+        assert!(text.contains(a), "{name}: no {a:?}");
+        text = text.replacen(a, b, 1);
+    }
+    let tag = format!("friction-scene-{name}-{}", edits.len());
+    let p = tmpdir(&tag).join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    load_scene(
+        &p,
+        &Overrides {
+            samples: Some(samples),
+            laws: Some(laws.iter().map(|l| l.to_string()).collect()),
+            ..Overrides::default()
+        },
+    )
+    .map_err(|e| e.to_string())
+}
+
+fn summary(s: &Scene, threads: usize) -> Summary {
+    let opts = RunOptions {
+        threads,
+        ..RunOptions::default()
+    };
+    Summary::new(s, &run(s, &opts).unwrap())
+}
+
+const FLOOR_K: &str = "restitution = 0.8\n";
+
+#[test]
+fn zero_friction_is_todays_kernel_bit_for_bit() {
+    for precision in ["f32", "f64"] {
+        let p = format!("precision = \"{precision}\"");
+        let plain = edited(
+            "floor",
+            &[("precision = \"f32\"", &p)],
+            200_000,
+            &["newton", "paper"],
+        )
+        .unwrap();
+        let zero = edited(
+            "floor",
+            &[
+                ("precision = \"f32\"", &p),
+                (FLOOR_K, "restitution = 0.8\nfriction = 0.0\n"),
+            ],
+            200_000,
+            &["newton", "paper"],
+        )
+        .unwrap();
+        assert!(!zero.effects().friction, "μ = 0 is no friction");
+        let (a, b) = (summary(&plain, 2), summary(&zero, 2));
+        assert_eq!(
+            serde_json::to_value(&a.laws).unwrap(),
+            serde_json::to_value(&b.laws).unwrap(),
+            "{precision}: μ = 0 changed the results"
+        );
+    }
+}
+
+/// friction.md ("Measured by the independent oracle"): on the frictional
+/// floor (S1 with μ = 0.5) the energy ratio is about 0.69 under `newton`
+/// and 0.63 under `stronge`, and neither gains energy.
+#[test]
+fn frictional_floor_matches_the_oracle_and_is_thread_independent() {
+    let s = edited("floor_friction", &[], 40_000, &["newton", "stronge"]).unwrap();
+    assert!(s.effects().friction);
+    let two = summary(&s, 2);
+    for (law, want) in [("newton", 0.69), ("stronge", 0.63)] {
+        let all = two.all_group(law).unwrap();
+        let mean = all.stats["energy_ratio"]["mean"].as_f64().unwrap();
+        assert!(
+            (mean - want).abs() < 0.01,
+            "{law}: energy ratio {mean} vs about {want}"
+        );
+        assert_eq!(all.fractions["energy_gain"].as_f64(), Some(0.0), "{law}");
+        for key in ["tangential_impulse_floor", "sliding_speed_floor"] {
+            let n = all.stats[key]["n"].as_u64().unwrap();
+            assert!(n > 30_000, "{law} {key}: n = {n}");
+        }
+        let stuck = all.fractions["sticking_floor"].as_f64().unwrap();
+        assert!(stuck > 0.0 && stuck < 1.0, "{law}: sticking {stuck}");
+        assert!(all.fractions.contains_key("ambiguous"));
+        assert!(all.fractions.contains_key("unconverged"));
+    }
+    // As in the oracle's figures, stronge dissipates more than newton here.
+    let e = |law: &str| {
+        two.all_group(law).unwrap().stats["energy_ratio"]["mean"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(e("stronge") < e("newton"));
+    let one = summary(&s, 1);
+    assert_eq!(
+        serde_json::to_value(&one.laws).unwrap(),
+        serde_json::to_value(&two.laws).unwrap(),
+        "1 and 2 threads differ"
+    );
+}
+
+#[test]
+fn laws_that_friction_rules_out_are_refused() {
+    let rough = ("restitution = 0.8\n", "restitution = 0.8\nfriction = 0.3\n");
+    let err = edited("floor", &[rough], 1000, &["poisson"]).unwrap_err();
+    assert!(
+        err.contains("poisson") && err.contains("floor") && err.contains("laws"),
+        "{err}"
+    );
+    // Poisson is fine when no touching plane has friction.
+    edited("floor", &[], 1000, &["poisson"]).unwrap();
+    let err = edited("corner3", &[], 1000, &["stronge"]).unwrap_err();
+    assert!(err.contains("stronge") && err.contains("wall_x"), "{err}");
+    let err = edited("drop_corner", &[], 1000, &["stronge"]).unwrap_err();
+    assert!(err.contains("stronge") && err.contains("drop"), "{err}");
+    let err = edited(
+        "floor",
+        &[(
+            "restitution = 0.8\n",
+            "restitution = 0.8\nfriction = -0.1\n",
+        )],
+        1000,
+        &["newton"],
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("planes") && err.contains("friction") && err.contains("-0.1"),
+        "{err}"
+    );
+    // Stronge on one touching plane without friction is newton.
+    let s = edited("floor", &[], 20_000, &["newton", "stronge"]).unwrap();
+    let r = summary(&s, 2);
+    let e = |law: &str| {
+        r.all_group(law).unwrap().stats["energy_ratio"]["mean"]
+            .as_f64()
+            .unwrap()
+    };
+    assert_eq!(e("newton"), e("stronge"));
+}
