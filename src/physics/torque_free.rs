@@ -456,24 +456,49 @@ impl ThetaPhase {
     /// For parameter m = k² ∈ (0, 1) and ν > 0, given K(m) and Π(−ν | m).
     pub fn new(m: f64, nu: f64, k_complete: f64, pi_complete: f64) -> Self {
         let mc = 1.0 - m;
-        let k_prime = carlson_rf(0.0, m, 1.0);
-        // γ = F(ψ | 1 − m) with tan ψ = 1/√ν.
+        // K′ = K(1 − m): infinite at m = 0 (equal moments I₁ = I₂, where
+        // also ν = 0 and Π(0; am u) = u).
+        let k_prime = if m > 0.0 {
+            carlson_rf(0.0, m, 1.0)
+        } else {
+            f64::INFINITY
+        };
+        // γ = K′ − β = F(ψ | 1 − m) with tan ψ = 1/√ν (ψ = π/2 at ν = 0).
         let (sin_psi, cos2_psi) = (1.0 / (1.0 + nu).sqrt(), nu / (1.0 + nu));
-        let gamma = sin_psi * carlson_rf(cos2_psi, 1.0 - mc * sin_psi * sin_psi, 1.0);
-        let beta = k_prime - gamma;
+        let gamma = if nu > 0.0 {
+            sin_psi * carlson_rf(cos2_psi, 1.0 - mc * sin_psi * sin_psi, 1.0)
+        } else {
+            k_prime
+        };
         let r = std::f64::consts::PI / k_complete;
         let mut s = Self {
             scale: 0.5 * r,
             slope: pi_complete / k_complete,
-            s: (nu / ((m + nu) * (1.0 + nu))).sqrt(),
+            // (No periodic part at ν = 0.)
+            s: if nu > 0.0 {
+                (nu / ((m + nu) * (1.0 + nu))).sqrt()
+            } else {
+                0.0
+            },
             terms: 0,
             re: [0.0; THETA_TERMS],
             im: [0.0; THETA_TERMS],
         };
         for n in 1..=THETA_TERMS {
             let nf = n as f64;
-            let up = (-r * (k_prime * nf * nf - nf * beta)).exp();
-            let down = (-r * (k_prime * nf * nf + nf * beta)).exp();
+            // qⁿ² e^{±2nw} = exp(−(π/K)(K′n(n ∓ 1) ± nγ)), written without
+            // K′ − γ (and without ∞ · 0 when K′ is infinite).
+            let below = if n == 1 {
+                0.0
+            } else {
+                k_prime * nf * (nf - 1.0)
+            };
+            let up = (-r * (below + nf * gamma)).exp();
+            let down = if k_prime.is_finite() {
+                (-r * (k_prime * nf * (nf + 1.0) - nf * gamma)).exp()
+            } else {
+                0.0
+            };
             let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
             s.re[n - 1] = sign * (up + down);
             s.im[n - 1] = sign * (up - down);
@@ -666,6 +691,8 @@ mod motion_tests {
             [0.2, 0.5, 0.3],
             [0.3, 0.2, 0.5],
             [0.5, 0.49, 0.1],
+            // Equal moments (I₁ = I₂): m = ν = 0 in the closed form.
+            [0.4, 0.4, 0.1],
         ]
         .iter()
         .map(|s| Ellipsoid::new(*s, 2.0).unwrap())
