@@ -219,13 +219,7 @@ impl Case {
                 Plane::new(p.normal, p.offset, p.restitution)
                     .and_then(|q| q.with_friction(p.friction.unwrap_or(0.0)))
                     .map_err(|e| {
-                        let field = match e {
-                            crate::physics::PlaneError::Normal(_) => "normal",
-                            crate::physics::PlaneError::Offset(_) => "offset",
-                            crate::physics::PlaneError::Restitution(_) => "restitution",
-                            crate::physics::PlaneError::Friction(_) => "friction",
-                        };
-                        FieldError::new(format!("planes[{i}].{field}"), e.to_string())
+                        FieldError::new(format!("planes[{i}].{}", e.field()), e.to_string())
                     })
             })
             .collect::<Result<Vec<_>, _>>()?;

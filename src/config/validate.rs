@@ -114,15 +114,7 @@ fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
         let idx = i.to_string();
         let plane = Plane::new(p.normal, p.offset, p.restitution)
             .and_then(|q| q.with_friction(p.friction.unwrap_or(0.0)))
-            .map_err(|e| {
-                let f = match e {
-                    crate::physics::PlaneError::Normal(_) => "normal",
-                    crate::physics::PlaneError::Offset(_) => "offset",
-                    crate::physics::PlaneError::Restitution(_) => "restitution",
-                    crate::physics::PlaneError::Friction(_) => "friction",
-                };
-                bad(&["planes", &idx, f], e.to_string())
-            })?;
+            .map_err(|e| bad(&["planes", &idx, e.field()], e.to_string()))?;
         if p.name.is_empty() || p.name.contains('+') {
             return Err(bad(
                 &["planes", &idx, "name"],

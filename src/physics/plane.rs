@@ -16,6 +16,19 @@ pub enum PlaneError {
     Friction(f64),
 }
 
+impl PlaneError {
+    /// The input field at fault: `normal`, `offset`, `restitution` or
+    /// `friction`.
+    pub fn field(&self) -> &'static str {
+        match self {
+            PlaneError::Normal(_) => "normal",
+            PlaneError::Offset(_) => "offset",
+            PlaneError::Restitution(_) => "restitution",
+            PlaneError::Friction(_) => "friction",
+        }
+    }
+}
+
 /// A validated plane: unit normal `n`, offset `e` (m), coefficient of
 /// restitution `k ∈ [0, 1]` and Coulomb coefficient `μ ≥ 0` (0 unless set
 /// with [`Plane::with_friction`]).
