@@ -38,7 +38,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
     #[rustfmt::skip]
     let want = [
         ("floor", true, false, false, "none", 1, "rotation", None),
-        ("floor_friction", true, false, false, "none", 1, "rotation", None),
+        ("floor_friction", true, false, false, "none", 1, "friction", None),
         ("floor_sphere", false, false, false, "none", 1, "closed-form", Some(0.0)),
         ("corner2_paper", true, true, false, "none", 1, "rotation+lcp", None),
         ("corner3", true, true, false, "none", 1, "rotation+lcp", None),

@@ -127,6 +127,7 @@ fn specialised_kernels_match_the_all_effects_kernel_per_sample() {
     let all = KernelVariant {
         rotational_coupling: true,
         coupled_contacts: true,
+        friction: false,
     };
     for precision in ["f64", "f32"] {
         // f64: rounding only (closed form against LCP enumeration);

@@ -7,7 +7,8 @@
 
 use crate::config::Scene;
 use crate::kernel::{
-    check_extra_planes, geometry, impulses, post, recompute, Consts, Geometry, LawOut,
+    check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute, Consts,
+    Frame, Geometry, LawOut, Sweep,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
@@ -15,6 +16,7 @@ use crate::output::samples::{push_rows, SampleRows};
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
+use crate::stats::block::record_friction;
 use crate::stats::block::{block_stats, Derived, StatsPlan};
 
 /// Scratch space of one worker: allocated once per batch, reused by blocks.
@@ -22,6 +24,9 @@ pub(crate) struct Work<T, const N: usize> {
     pub(crate) inputs: Box<Inputs<T>>,
     pub(crate) geo: Box<Geometry<T, N>>,
     pub(crate) outs: Vec<Box<LawOut<T, N>>>,
+    /// With friction: the contact frames and the Gauss–Seidel state.
+    pub(crate) frame: Box<Frame<T, N>>,
+    pub(crate) sweep: Box<Sweep<T, N>>,
     pub(crate) derived: Box<Derived<T, N>>,
     /// laws[0]'s per-lane statistics, for paired differences.
     pub(crate) first: Box<Derived<T, N>>,
@@ -34,6 +39,8 @@ impl<T: Real, const N: usize> Work<T, N> {
             inputs: Inputs::new(),
             geo: Geometry::new(),
             outs: (0..laws).map(|_| LawOut::new()).collect(),
+            frame: Frame::new(),
+            sweep: Sweep::new(),
             derived: Derived::new(),
             first: Derived::new(),
             diff: Box::new([T::ZERO; BLOCK]),
@@ -44,18 +51,26 @@ impl<T: Real, const N: usize> Work<T, N> {
 multiversioned! {
     /// The vectorised part of a block: draws, geometry, impulses and post
     /// quantities for every law. Compiled for AVX-512, AVX2+FMA and the
-    /// baseline; the best the CPU has is chosen at run time.
+    /// baseline; the best the CPU has is chosen at run time. A scene with
+    /// friction runs the frictional kernel (its variant is always the
+    /// rotational, coupled one).
     pub(crate) fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         consts: &Consts<T, N>,
         sampler: &Sampler,
         laws: &[Law],
         first: u64,
-        inputs: &mut Inputs<T>,
-        geo: &mut Geometry<T, N>,
-        outs: &mut [Box<LawOut<T, N>>],
+        work: &mut Work<T, N>,
     ) {
         crate::lanes::dispatch::align_frame();
+        let Work { inputs, geo, outs, frame: fr, sweep, .. } = work;
         sampler.fill(first, inputs);
+        if ROT && CPL && consts.fr.on {
+            frame::<T, N>(consts, inputs, fr, geo);
+            for (law, out) in laws.iter().zip(outs.iter_mut()) {
+                friction_impulses::<T, N>(consts, *law, inputs, geo, fr, sweep, out);
+            }
+            return;
+        }
         let newton_only = CPL && laws.iter().all(|l| matches!(l, Law::Newton));
         geometry::<T, N, ROT>(consts, inputs, geo, !newton_only);
         for (law, out) in laws.iter().zip(outs.iter_mut()) {
@@ -117,15 +132,7 @@ pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: boo
         ..
     } = *ctx;
     let laws = scene.laws();
-    block_lanes::<T, N, ROT, CPL>(
-        consts,
-        sampler,
-        laws,
-        first,
-        &mut work.inputs,
-        &mut work.geo,
-        &mut work.outs,
-    );
+    block_lanes::<T, N, ROT, CPL>(consts, sampler, laws, first, work);
     fallback(scene, sampler, laws, first, work, count, Some(&mut *acc));
     block_stats(
         &work.geo,
@@ -154,15 +161,6 @@ pub(crate) fn fallback<T: Real, const N: usize>(
     count: usize,
     mut acc: Option<&mut RunAcc>,
 ) {
-    // With friction on a touching plane every lane is solved by the f64
-    // reference, which has the frictional laws.
-    if scene.effects().friction {
-        for out in work.outs.iter_mut() {
-            for st in &mut out.status[..count] {
-                *st |= crate::kernel::RECOMPUTE;
-            }
-        }
-    }
     let extra_planes = scene.planes().len() > N;
     if extra_planes {
         check_extra_planes(scene, &work.inputs, &mut work.geo, count);
@@ -198,7 +196,9 @@ pub(crate) fn fallback<T: Real, const N: usize>(
                 out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
             }
         }
-        let friction = acc.as_deref_mut().and_then(|a| a.laws[l].friction.as_mut());
-        recompute(scene, *law, &work.inputs, out, count, friction);
+        recompute(scene, *law, &work.inputs, out, count);
+        if let Some(fr) = acc.as_deref_mut().and_then(|a| a.laws[l].friction.as_mut()) {
+            record_friction(out, count, fr);
+        }
     }
 }

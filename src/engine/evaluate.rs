@@ -20,6 +20,9 @@ pub struct SampleOutcome {
     pub omega: [f64; 3],
     /// Impulse per touching plane (scene order).
     pub impulses: Vec<f64>,
+    /// With friction: `|f_i|` (N·s) and `|c⁺_t,i|` (m/s) per touching plane.
+    pub tangential: Vec<f64>,
+    pub sliding: Vec<f64>,
     /// Normal velocity of the contact point per touching plane, before and
     /// after the impact (m/s).
     pub vn_before: Vec<f64>,
@@ -45,15 +48,7 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let mut start = first;
     while out.len() < count {
         let n = (count - out.len()).min(BLOCK);
-        block_lanes::<T, N, ROT, CPL>(
-            &consts,
-            &sampler,
-            &[law],
-            start,
-            &mut work.inputs,
-            &mut work.geo,
-            &mut work.outs,
-        );
+        block_lanes::<T, N, ROT, CPL>(&consts, &sampler, &[law], start, &mut work);
         fallback(scene, &sampler, &[law], start, &mut work, n, None);
         let o = &work.outs[0];
         let x = &work.inputs;
@@ -65,6 +60,8 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 velocity: f(&x.v),
                 omega: f(&x.w),
                 impulses: (0..N).map(|i| o.lambda[i][s].to_f64()).collect(),
+                tangential: (0..N).map(|i| o.tangential[i][s].to_f64()).collect(),
+                sliding: (0..N).map(|i| o.sliding[i][s].to_f64()).collect(),
                 vn_before: (0..N).map(|i| work.geo.vn[i][s].to_f64()).collect(),
                 vn_after: (0..N).map(|i| o.vn_after[i][s].to_f64()).collect(),
                 velocity_after: f(&o.v_after),

@@ -15,8 +15,6 @@ use super::impulses::*;
 use super::lcp::*;
 use crate::kernel::*;
 use crate::lanes::Real;
-use crate::physics::ImpactOutcome;
-use crate::stats::accumulators::FrictionAcc;
 
 /// Marks lanes where a plane outside the placement touches or is penetrated
 /// (the f64 reference then decides). Scalar, and skipped entirely when every
@@ -53,15 +51,14 @@ pub(crate) fn lane_matrix<T: Real>(x: &Inputs<T>, s: usize) -> DMat3 {
 }
 
 /// Solves flagged lanes again with the f64 reference on the same inputs and
-/// writes the answers back, with the reference's flags; in a scene with
-/// friction (every lane flagged) also records the friction statistics.
+/// writes the answers back, with the reference's flags (and, with
+/// friction, its tangential impulses, sliding speeds and sticking).
 pub fn recompute<T: Real, const N: usize>(
     scene: &Scene,
     law: Law,
     x: &Inputs<T>,
     out: &mut LawOut<T, N>,
     count: usize,
-    mut friction: Option<&mut FrictionAcc>,
 ) {
     // Most blocks have no flagged lane: one vectorised test first.
     let mut any = 0u32;
@@ -96,12 +93,24 @@ pub fn recompute<T: Real, const N: usize>(
         {
             status |= PENETRATING;
         }
+        // friction.md's sticking: `|c⁺_t| ≤ 1e-9 ×` the larger velocity
+        // scale of before and after.
+        let l = scene.body().length_scale();
+        let stuck_at = 1e-9
+            * (state.velocity.length() + l * state.omega.length())
+                .max(o.after.velocity.length() + l * o.after.omega.length());
         for (i, &p) in scene.touching().iter().enumerate() {
             let ct = &o.contacts[p];
             out.lambda[i][s] = T::from_f64(ct.impulse);
             out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
+            out.tangential[i][s] = T::from_f64(ct.tangential_impulse.length());
+            out.sliding[i][s] = T::from_f64(ct.sliding_after);
             status |= ((ct.impulse > 0.0) as u32) << (ACTIVE_SHIFT + i as u32);
             status |= (ct.approaching as u32) << (APPROACHING_SHIFT + i as u32);
+            status |= bit(
+                ct.impulse > 0.0 && ct.sliding_after <= stuck_at,
+                1 << (STICKING_SHIFT + i as u32),
+            );
         }
         for k in 0..3 {
             out.v_after[k][s] = T::from_f64(o.after.velocity[k]);
@@ -111,39 +120,9 @@ pub fn recompute<T: Real, const N: usize>(
         status |= bit(o.flags.energy_gain, ENERGY_GAIN)
             | bit(o.flags.degenerate, DEGENERATE)
             | bit(o.flags.jammed, JAMMED)
-            | bit(o.flags.unsolved, UNSOLVED);
+            | bit(o.flags.unsolved, UNSOLVED)
+            | bit(o.flags.ambiguous, AMBIGUOUS)
+            | bit(o.flags.unconverged, UNCONVERGED);
         out.status[s] = status;
-        if let Some(fr) = friction.as_deref_mut() {
-            if status & PENETRATING == 0 {
-                record_friction(scene, state, &o, fr);
-            }
-        }
-    }
-}
-
-/// One sample's friction statistics: |f| per touching plane over impacting
-/// samples, and per active contact its sliding speed after and whether it
-/// ends sticking (`|c⁺_t| ≤ 1e-9 ×` the larger of `|v| + L|ω|` before and
-/// after).
-fn record_friction(scene: &Scene, before: State, o: &ImpactOutcome, fr: &mut FrictionAcc) {
-    fr.ambiguous += o.flags.ambiguous as u64;
-    fr.unconverged += o.flags.unconverged as u64;
-    let touching = scene.touching();
-    if touching.iter().all(|&p| o.contacts[p].impulse <= 0.0) {
-        return;
-    }
-    let l = scene.body().length_scale();
-    let vscale = (before.velocity.length() + l * before.omega.length())
-        .max(o.after.velocity.length() + l * o.after.omega.length());
-    for (i, &p) in touching.iter().enumerate() {
-        let ct = &o.contacts[p];
-        fr.tangential_impulse[i]
-            .moments
-            .push(ct.tangential_impulse.length());
-        if ct.impulse > 0.0 {
-            fr.active[i] += 1;
-            fr.sliding_speed[i].moments.push(ct.sliding_after);
-            fr.sticking[i] += (ct.sliding_after <= 1e-9 * vscale) as u64;
-        }
     }
 }

@@ -23,6 +23,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 mod fallback;
+mod friction;
 mod geometry;
 mod impulses;
 mod lcp;
@@ -37,6 +38,7 @@ use crate::physics::{solve_impact, Law, Pose, State};
 use crate::sampler::Inputs;
 
 pub use fallback::{check_extra_planes, recompute};
+pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
 pub use impulses::{impulses, post};
 pub use variant::KernelVariant;
@@ -51,6 +53,12 @@ pub const JAMMED: u32 = 1 << 11;
 pub const UNSOLVED: u32 = 1 << 12;
 pub const PENETRATING: u32 = 1 << 13;
 pub const RECOMPUTED: u32 = 1 << 14;
+/// With friction: bits 16..16+N, contact i ended sticking (active, with
+/// `|c⁺_t| ≤ 1e-9 ×` the velocity scale); several valid single-contact
+/// solutions; neither Gauss–Seidel converged (friction.md).
+pub const STICKING_SHIFT: u32 = 16;
+pub const AMBIGUOUS: u32 = 1 << 20;
+pub const UNCONVERGED: u32 = 1 << 21;
 
 /// `flag` when `c` holds, else 0, without a branch.
 #[inline(always)]
@@ -81,6 +89,8 @@ pub struct Consts<T, const N: usize> {
     /// When every touching plane's normal is ±e_k (exactly): k per plane.
     /// Then Aᵀn is ± row k of A and n·v is ±v_k, with no arithmetic.
     axes: Option<[usize; N]>,
+    /// Coulomb friction of the touching planes.
+    pub fr: FrictionConsts<T, N>,
 }
 
 impl<T: Real, const N: usize> Consts<T, N> {
@@ -147,6 +157,7 @@ impl<T: Real, const N: usize> Consts<T, N> {
                     .collect();
                 (ks.len() == N).then(|| std::array::from_fn(|i| ks[i]))
             },
+            fr: FrictionConsts::new(scene),
         }
     }
 }
@@ -173,6 +184,9 @@ pub struct LawOut<T, const N: usize> {
     pub w_after: [[T; BLOCK]; 3],
     pub t_after: [T; BLOCK],
     pub status: [u32; BLOCK],
+    /// With friction, per contact: `|f_i|` (N·s) and `|c⁺_t,i|` (m/s).
+    pub tangential: [[T; BLOCK]; N],
+    pub sliding: [[T; BLOCK]; N],
 }
 
 impl<T: Real, const N: usize> Geometry<T, N> {
@@ -196,6 +210,8 @@ impl<T: Real, const N: usize> LawOut<T, N> {
             w_after: [[T::ZERO; BLOCK]; 3],
             t_after: [T::ZERO; BLOCK],
             status: [0; BLOCK],
+            tangential: [[T::ZERO; BLOCK]; N],
+            sliding: [[T::ZERO; BLOCK]; N],
         })
     }
 }

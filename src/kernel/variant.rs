@@ -12,6 +12,9 @@ pub struct KernelVariant {
     /// The LCP over the touching planes (off for one plane, or G diagonal
     /// by geometry: every law is then the per-contact closed form).
     pub coupled_contacts: bool,
+    /// Coulomb friction on a touching plane: the frictional kernel, which
+    /// always has the lever arms and couples the contacts (Gauss–Seidel).
+    pub friction: bool,
 }
 
 impl KernelVariant {
@@ -19,14 +22,21 @@ impl KernelVariant {
     /// the scene needs.
     pub fn of(scene: &Scene, keep: Keep) -> Self {
         let e = scene.effects();
+        // A drop scene's bounces are solved by the reference: its friction
+        // does not reach the lane kernel.
+        let friction = e.friction && scene.drop_box().is_none();
         Self {
-            rotational_coupling: keep.rotation || e.rotational_coupling,
-            coupled_contacts: keep.lcp || e.coupled_contacts,
+            rotational_coupling: friction || keep.rotation || e.rotational_coupling,
+            coupled_contacts: friction || keep.lcp || e.coupled_contacts,
+            friction,
         }
     }
 
-    /// `rotation+lcp`, `rotation`, `lcp` or `closed-form`.
+    /// `friction`, `rotation+lcp`, `rotation`, `lcp` or `closed-form`.
     pub fn name(&self) -> &'static str {
+        if self.friction {
+            return "friction";
+        }
         match (self.rotational_coupling, self.coupled_contacts) {
             (true, true) => "rotation+lcp",
             (true, false) => "rotation",

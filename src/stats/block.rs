@@ -8,12 +8,12 @@
 
 use crate::config::{Keep, Quantiles, Scene, Statistic, Statistics};
 use crate::kernel::{
-    Geometry, LawOut, ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTED,
-    UNSOLVED,
+    Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING,
+    RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::{select, Real};
-use crate::stats::accumulators::{GroupAcc, LawAcc, RunAcc};
+use crate::stats::accumulators::{FrictionAcc, GroupAcc, LawAcc, RunAcc};
 use crate::stats::{scatter, LogHistogram, Moments, Stat, BINS};
 
 /// Per-lane statistics of one law in a block, in the kernel's precision,
@@ -456,5 +456,49 @@ fn block_stats_by_set<T: Real, const N: usize>(
                 }
             }
         }
+    }
+}
+
+/// One law's friction statistics of a block (friction.md, "What the engine
+/// reports"): `|f_i|` over impacting lanes (some λ > 0, zeros included),
+/// `|c⁺_t,i|` and sticking over each contact's active lanes, and the
+/// `ambiguous` and `unconverged` counts. Penetrating lanes and lanes past
+/// `count` are left out.
+pub(crate) fn record_friction<T: Real, const N: usize>(
+    out: &LawOut<T, N>,
+    count: usize,
+    fr: &mut FrictionAcc,
+) {
+    let w01 = |c: bool| select(c, T::ONE, T::ZERO);
+    let active_mask = ((1u32 << N) - 1) << ACTIVE_SHIFT;
+    let mut impacting = [T::ZERO; BLOCK];
+    let mut active = [[T::ZERO; BLOCK]; N];
+    let mut tangential = [[T::ZERO; BLOCK]; N];
+    let mut sliding = [[T::ZERO; BLOCK]; N];
+    for s in 0..count {
+        let st = out.status[s];
+        if st & PENETRATING != 0 {
+            continue;
+        }
+        fr.ambiguous += (st & AMBIGUOUS != 0) as u64;
+        fr.unconverged += (st & UNCONVERGED != 0) as u64;
+        let any = st & active_mask != 0;
+        impacting[s] = w01(any);
+        for i in 0..N {
+            let on = st & (1 << (ACTIVE_SHIFT + i as u32)) != 0;
+            active[i][s] = w01(on);
+            tangential[i][s] = select(any, out.tangential[i][s], T::ZERO);
+            sliding[i][s] = select(on, out.sliding[i][s], T::ZERO);
+            fr.active[i] += on as u64;
+            fr.sticking[i] += (st & (1 << (STICKING_SHIFT + i as u32)) != 0) as u64;
+        }
+    }
+    for i in 0..N {
+        fr.tangential_impulse[i]
+            .moments
+            .push_weighted(&tangential[i], &impacting);
+        fr.sliding_speed[i]
+            .moments
+            .push_weighted(&sliding[i], &active[i]);
     }
 }

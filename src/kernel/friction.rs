@@ -1,0 +1,752 @@
+//! Coulomb friction in lanes (friction.md): each touching plane's contact
+//! frame, the single-contact solve (take-off, stick, slide) with a
+//! certificate, and the laws `newton` (Gauss–Seidel to its limit), `pgsN`
+//! and `paper` as visits of it.
+//!
+//! Contact i has three directions d ∈ {n, t₁, t₂} (its normal and a tangent
+//! basis fixed per plane, in the world frame) and for each the body-frame
+//! lever `r = x_i × Aᵀd`. The contact-point velocity along d is
+//! `c_d = d·v + r·ω`; impulse components `P_d` change v by `Σ P_d d / m`
+//! and ω by `J⁻¹ Σ P_d r`. The Delassus block in these coordinates is
+//! `W_de = δ_de/m + Σ_k r_d,k r_e,k / J_k` (friction.md, "Kinematics").
+//!
+//! The slide angle θ of `ŝ = cos θ t₁ + sin θ t₂` solves
+//! `F(θ) = ŝ⊥·[D(θ) c_t − a (w_t − μ W_tt ŝ)] = 0` (friction.md, case 3), a
+//! trigonometric polynomial of degree 2 with closed-form coefficients.
+//! Its roots are located on a fixed grid of 16 intervals: each interval is
+//! certified root-free, or to hold exactly one root (F monotone), from F
+//! and F′ at its ends and a bound on F″ (concave quadratic lower bounds,
+//! which are smallest at an end of where they are used). Whether a root is
+//! valid (`D > 0` and its sliding speed s above the stick threshold) is
+//! certified the same way over its whole interval. The one valid root is
+//! then refined by a fixed count of safeguarded Newton steps in its
+//! bracket. A lane is solved here only when the certificate shows exactly
+//! one valid case (stick, or one slide root) clear of every boundary by a
+//! margin above the lane type's rounding; otherwise (several valid cases:
+//! `ambiguous`; none: `unsolved`; anything within the margin of a
+//! decision; Gauss–Seidel not converged) it is flagged [`RECOMPUTE`] and
+//! solved by the f64 reference.
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+use super::geometry::dot3;
+use crate::kernel::*;
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
+
+/// Intervals of the slide angle's grid over [0, 2π).
+const GRID: usize = 16;
+
+/// Contact i's last visit took the stick case (bit `STICK_SHIFT + i` of
+/// the sweep bits).
+const STICK_SHIFT: u32 = 0;
+/// Some visit of the lane could not be certified.
+const UNSURE: u32 = 1 << 8;
+
+/// The friction constants of a scene for the lane kernel.
+#[derive(Debug, Clone)]
+pub struct FrictionConsts<T, const N: usize> {
+    /// A touching plane has μ > 0: the scene runs this kernel.
+    pub on: bool,
+    mu: [T; N],
+    /// t₁, t₂ of each touching plane (world): the tangent basis the
+    /// reference uses, though no result depends on it.
+    tangent: [[[T; 3]; 2]; N],
+    /// cos θ_j, sin θ_j, cos 2θ_j, sin 2θ_j at θ_j = 2πj/GRID, j ≤ GRID.
+    grid: [[T; 4]; GRID + 1],
+    /// The grid step 2π/GRID, half of it, and its square over 8.
+    h: T,
+    half_h: T,
+    h2_8: T,
+    /// Decisions closer than these to their boundary are not taken here:
+    /// |a| (take-off), relative to the velocity scale; |f| against μλ
+    /// (stick), relative; the sliding speed against friction.md's stick
+    /// threshold, relative to the velocity scale; the certificate's
+    /// values, relative to their terms' magnitude.
+    take_off_band: T,
+    stick_band: T,
+    slide_hi: T,
+    slide_lo: T,
+    round: T,
+    /// The refined angle's last Newton step must be below this (rad).
+    angle_tol: T,
+    /// Gauss–Seidel's stopping rule: no impulse moved by more than this
+    /// times `m (|v| + L|ω|)` in a sweep (friction.md: 1e-13 in f64).
+    gs_tol: T,
+    /// Sweeps after which a block's unconverged lanes go to the reference.
+    gs_max: u32,
+}
+
+impl<T: Real, const N: usize> FrictionConsts<T, N> {
+    pub fn new(scene: &Scene) -> Self {
+        let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+        let planes = scene.touching_planes();
+        let tau = std::f64::consts::TAU;
+        let h = tau / GRID as f64;
+        // friction.md's stick threshold for a slide root's speed.
+        let stick_speed = 1e-9;
+        let band = if f32_lanes { 1e-4 } else { 1e-12 };
+        Self {
+            on: planes.iter().any(|p| p.friction() > 0.0),
+            mu: std::array::from_fn(|i| T::from_f64(planes[i].friction())),
+            tangent: std::array::from_fn(|i| {
+                let n = planes[i].normal();
+                let t1 = n.any_orthonormal_vector();
+                [t1, n.cross(t1)].map(|t| t.to_array().map(T::from_f64))
+            }),
+            grid: std::array::from_fn(|j| {
+                let t = tau * (j % GRID) as f64 / GRID as f64;
+                [t.cos(), t.sin(), (2.0 * t).cos(), (2.0 * t).sin()].map(T::from_f64)
+            }),
+            h: T::from_f64(h),
+            half_h: T::from_f64(0.5 * h),
+            h2_8: T::from_f64(h * h / 8.0),
+            take_off_band: T::from_f64(if f32_lanes { 1e-5 } else { 1e-12 }),
+            stick_band: T::from_f64(band),
+            slide_hi: T::from_f64(stick_speed + band),
+            slide_lo: T::from_f64(stick_speed - band),
+            round: T::from_f64(if f32_lanes { 1e-5 } else { 1e-12 }),
+            angle_tol: T::from_f64(if f32_lanes { 1e-5 } else { 1e-12 }),
+            gs_tol: T::from_f64(if f32_lanes { 2e-6 } else { 1e-13 }),
+            gs_max: if f32_lanes { 64 } else { 200 },
+        }
+    }
+}
+
+/// The contact frames of a block: levers, pre-impact contact-point
+/// velocities and Delassus blocks per touching plane. Cache-line aligned.
+#[repr(C, align(64))]
+pub struct Frame<T, const N: usize> {
+    /// `lever[i][d][k]`: component k of `x_i × Aᵀd`, d = n, t₁, t₂.
+    lever: [[[[T; BLOCK]; 3]; 3]; N],
+    /// `c0[i][d]`: `c⁻_i · d`.
+    c0: [[[T; BLOCK]; 3]; N],
+    /// W_ii in the frame: nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂.
+    w: [[[T; BLOCK]; 6]; N],
+    /// `|v| + L|ω|` before the impact.
+    vscale: [T; BLOCK],
+}
+
+/// Gauss–Seidel state of one law on a block.
+#[repr(C, align(64))]
+pub struct Sweep<T, const N: usize> {
+    /// `p[i][d]`: contact i's impulse along d (N·s).
+    p: [[[T; BLOCK]; 3]; N],
+    /// What the impulses have changed so far: v (world) and ω (body).
+    dv: [[T; BLOCK]; 3],
+    dw: [[T; BLOCK]; 3],
+    /// The largest |ΔP_i| of the current sweep.
+    moved: [T; BLOCK],
+    /// Stick bits per contact and [`UNSURE`].
+    bits: [u32; BLOCK],
+}
+
+impl<T: Real, const N: usize> Frame<T, N> {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            lever: [[[[T::ZERO; BLOCK]; 3]; 3]; N],
+            c0: [[[T::ZERO; BLOCK]; 3]; N],
+            w: [[[T::ZERO; BLOCK]; 6]; N],
+            vscale: [T::ZERO; BLOCK],
+        })
+    }
+}
+
+impl<T: Real, const N: usize> Sweep<T, N> {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            p: [[[T::ZERO; BLOCK]; 3]; N],
+            dv: [[T::ZERO; BLOCK]; 3],
+            dw: [[T::ZERO; BLOCK]; 3],
+            moved: [T::ZERO; BLOCK],
+            bits: [0; BLOCK],
+        })
+    }
+}
+
+/// The contact frames of a block, and the geometry the statistics read
+/// (normal velocities, T⁻, approach bits; in f32 grazing lanes flagged as
+/// in [`geometry`]).
+#[inline(always)]
+pub fn frame<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    fr: &mut Frame<T, N>,
+    geo: &mut Geometry<T, N>,
+) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    for s in 0..BLOCK {
+        let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+        let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
+        let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
+        let vscale = c.length.mul_add(dot3(w, w).sqrt(), dot3(v, v).sqrt());
+        let mut status = 0u32;
+        for i in 0..N {
+            let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
+            // Aᵀd for each direction: the body-frame directions.
+            let body: [[T; 3]; 3] = std::array::from_fn(|d| {
+                std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], dirs[d]))
+            });
+            let u = body[0];
+            let h = dot3([c.semi2[0] * u[0], c.semi2[1] * u[1], c.semi2[2] * u[2]], u).sqrt();
+            let minus_inv_h = -T::ONE / h;
+            // The support point x = −diag(a², b², c²) u / h (physics.md §2).
+            let p: [T; 3] = std::array::from_fn(|k| c.semi2[k] * u[k] * minus_inv_h);
+            let lever: [[T; 3]; 3] = std::array::from_fn(|d| {
+                let e = body[d];
+                [
+                    p[1] * e[2] - p[2] * e[1],
+                    p[2] * e[0] - p[0] * e[2],
+                    p[0] * e[1] - p[1] * e[0],
+                ]
+            });
+            for d in 0..3 {
+                for k in 0..3 {
+                    fr.lever[i][d][k][s] = lever[d][k];
+                }
+                fr.c0[i][d][s] = dot3(lever[d], w) + dot3(dirs[d], v);
+            }
+            let wde = |d: usize, e: usize| {
+                let mut x = if d == e { c.inv_mass } else { T::ZERO };
+                for k in 0..3 {
+                    x = (lever[d][k] * lever[e][k]).mul_add(c.inv_inertia[k], x);
+                }
+                x
+            };
+            let blocks = [
+                wde(0, 0),
+                wde(0, 1),
+                wde(0, 2),
+                wde(1, 1),
+                wde(1, 2),
+                wde(2, 2),
+            ];
+            for m in 0..6 {
+                fr.w[i][m][s] = blocks[m];
+            }
+            let vn = fr.c0[i][0][s];
+            geo.vn[i][s] = vn;
+            status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
+            status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
+        }
+        fr.vscale[s] = vscale;
+        geo.t_before[s] = T::HALF
+            * c.mass.mul_add(
+                dot3(v, v),
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
+        geo.status[s] = status;
+    }
+}
+
+/// The slide case's trigonometric polynomials (friction.md, case 3), with
+/// `ŝ = (cos θ, sin θ)` in the tangent basis and `v(θ) = D(θ) c_t −
+/// a (w_t − μ W_tt ŝ)`, `D(θ) = W_nn − μ w_t·ŝ`:
+/// - `F(θ) = ŝ⊥·v = A0 + A1 cos θ + B1 sin θ + A2 cos 2θ + B2 sin 2θ`, whose
+///   roots are the slide directions;
+/// - `N(θ) = ŝ·v = N0 − B1 cos θ + A1 sin θ − B2 cos 2θ + A2 sin 2θ`, the
+///   sliding speed times D at a root.
+///
+/// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
+/// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
+#[derive(Debug, Clone, Copy)]
+struct Slide<T> {
+    a0: T,
+    a1: T,
+    b1: T,
+    a2: T,
+    b2: T,
+    n0: T,
+}
+
+impl<T: Real> Slide<T> {
+    /// From μ, the free tangential velocity `ct`, `a = c_n + b` and the
+    /// Delassus block (nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂).
+    #[inline(always)]
+    fn new(mu: T, ct: [T; 2], a: T, w: [T; 6]) -> Self {
+        let [wnn, w1, w2, p, q, r] = w;
+        let [c1, c2] = ct;
+        let hm = T::HALF * mu;
+        let am = a * mu;
+        Self {
+            a0: hm * w2.mul_add(c1, -(w1 * c2)),
+            a1: wnn.mul_add(c2, -(a * w2)),
+            b1: a.mul_add(w1, -(wnn * c1)),
+            a2: am.mul_add(q, -(hm * w1.mul_add(c2, w2 * c1))),
+            b2: (T::HALF * am).mul_add(r - p, -(hm * w2.mul_add(c2, -(w1 * c1)))),
+            n0: (T::HALF * am).mul_add(p + r, -(hm * w1.mul_add(c1, w2 * c2))),
+        }
+    }
+
+    /// F, F′, F″ at the angle with (cos θ, sin θ, cos 2θ, sin 2θ) = `g`.
+    #[inline(always)]
+    fn at(&self, g: [T; 4]) -> [T; 3] {
+        let Self {
+            a0, a1, b1, a2, b2, ..
+        } = *self;
+        let [cs, sn, c2t, s2t] = g;
+        let two = T::ONE + T::ONE;
+        let four = two + two;
+        [
+            b2.mul_add(s2t, a2.mul_add(c2t, b1.mul_add(sn, a1.mul_add(cs, a0)))),
+            (two * b2).mul_add(c2t, (-two * a2).mul_add(s2t, b1.mul_add(cs, -(a1 * sn)))),
+            (-four * b2).mul_add(
+                s2t,
+                (-four * a2).mul_add(c2t, (-b1).mul_add(sn, -(a1 * cs))),
+            ),
+        ]
+    }
+
+    /// N at the angle with (cos θ, sin θ, cos 2θ, sin 2θ) = `g`.
+    #[inline(always)]
+    fn numerator(&self, g: [T; 4]) -> T {
+        let Self {
+            a1, b1, a2, b2, n0, ..
+        } = *self;
+        let [cs, sn, c2t, s2t] = g;
+        a2.mul_add(
+            s2t,
+            (-b2).mul_add(c2t, a1.mul_add(sn, (-b1).mul_add(cs, n0))),
+        )
+    }
+}
+
+/// Whether `g > m` on a whole grid interval, from its values and slopes
+/// at both ends and `l2 ≥ |g″|`: the quadratic lower bound from each end
+/// is concave, so it is positive on its half of the interval when it is at
+/// both ends of that half.
+#[inline(always)]
+fn positive_on<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    g: [T; 2],
+    slope: [T; 2],
+    l2: T,
+    m: T,
+) -> bool {
+    let q = l2 * fc.h2_8;
+    (g[0] > m)
+        & (g[1] > m)
+        & (slope[0].mul_add(fc.half_h, g[0]) - q > m)
+        & ((-slope[1]).mul_add(fc.half_h, g[1]) - q > m)
+}
+
+/// The single-contact solve of friction.md in one lane: free
+/// contact-point velocity `c` (frame coordinates), `a = c_n + b`, the
+/// Delassus block `w` (nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂), μ > 0 and the
+/// velocity scale. Returns the impulse (frame coordinates), whether it is
+/// the stick case, and whether the certificate vouches for it.
+#[inline(always)]
+fn single<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    c: [T; 3],
+    a: T,
+    w: [T; 6],
+    vscale: T,
+) -> ([T; 3], bool, bool) {
+    let [wnn, w1, w2, p, q, r] = w;
+    let [_, c1, c2] = c;
+    let two = T::ONE + T::ONE;
+    // 1. Take-off.
+    let approaching = a < T::ZERO;
+    let sure_a = a.abs() > fc.take_off_band * vscale;
+    // 2. Stick: W P = (−a, −c₁, −c₂), by the symmetric cofactors.
+    let k00 = p.mul_add(r, -(q * q));
+    let k01 = w2.mul_add(q, -(w1 * r));
+    let k02 = w1.mul_add(q, -(p * w2));
+    let k11 = wnn.mul_add(r, -(w2 * w2));
+    let k12 = w1.mul_add(w2, -(wnn * q));
+    let k22 = wnn.mul_add(p, -(w1 * w1));
+    let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
+    let rhs = [-a, -c1, -c2];
+    let stick = [
+        dot3([k00, k01, k02], rhs) * inv,
+        dot3([k01, k11, k12], rhs) * inv,
+        dot3([k02, k12, k22], rhs) * inv,
+    ];
+    let f_stick = stick[1].mul_add(stick[1], stick[2] * stick[2]).sqrt();
+    let limit = mu * stick[0];
+    let stick_ok = (stick[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
+    let stick_no = f_stick >= limit * (T::ONE + fc.stick_band);
+    // 3. Slide: the roots of F, located on the grid.
+    let k = Slide::new(mu, [c1, c2], a, w);
+    let (mw1, mw2) = (mu * w1, mu * w2);
+    let f1 = k.a1.mul_add(k.a1, k.b1 * k.b1).sqrt();
+    let f2 = k.a2.mul_add(k.a2, k.b2 * k.b2).sqrt();
+    // |F‴| ≤ l3 (a degree-2 polynomial's k-th derivative is at most
+    // |c₁| + 2^k |c₂| in amplitude).
+    let l3 = T::from_f64(8.0).mul_add(f2, f1);
+    // Margins: values within rounding (and, in f32, within the inputs' own
+    // rounding) of zero decide nothing.
+    let ld = mw1.mul_add(mw1, mw2 * mw2).sqrt();
+    let mag = (wnn + ld) * (c1.abs() + c2.abs())
+        + a.abs() * ((w1.abs() + w2.abs()) + mu * (p.abs() + q.abs() + r.abs()));
+    let m_f = fc.round * mag;
+    let m_d = fc.round * (wnn + ld);
+    let mut left = k.at(fc.grid[0]);
+    let mut changes = T::ZERO;
+    let mut sure_grid = true;
+    // The intervals where F changes sign, at most four (F has degree 2):
+    // (cos θ_j, sin θ_j, F(θ_j), F(θ_j+1)).
+    let mut slots = [[T::ONE, T::ZERO, -T::ONE, T::ONE]; 4];
+    for j in 0..GRID {
+        let right = k.at(fc.grid[j + 1]);
+        let [f0, fp0, fpp0] = left;
+        let [f1v, fp1, fpp1] = right;
+        let rise = (f0 <= T::ZERO) & (f1v > T::ZERO);
+        let fall = (f0 > T::ZERO) & (f1v <= T::ZERO);
+        // |F″| on the interval, from its ends and |F‴| ≤ l3.
+        let l2 = fpp0.abs().max(fpp1.abs()) + l3 * fc.half_h;
+        let root_free = positive_on(fc, [f0, f1v], [fp0, fp1], l2, m_f)
+            | positive_on(fc, [-f0, -f1v], [-fp0, -fp1], l2, m_f);
+        // One root: F′ keeps the sign of the change on the whole interval.
+        let monotone = (rise & positive_on(fc, [fp0, fp1], [fpp0, fpp1], l3, m_f))
+            | (fall & positive_on(fc, [-fp0, -fp1], [-fpp0, -fpp1], l3, m_f));
+        let change = rise | fall;
+        sure_grid &= (change & monotone) | (!change & root_free);
+        for (n, slot) in slots.iter_mut().enumerate() {
+            let take = change & (changes == T::from_f64(n as f64));
+            let new = [fc.grid[j][0], fc.grid[j][1], f0, f1v];
+            for m in 0..4 {
+                slot[m] = select(take, new[m], slot[m]);
+            }
+        }
+        changes += select(change, T::ONE, T::ZERO);
+        left = right;
+    }
+    // Each root: refined by safeguarded Newton in t = θ − θ_j ∈ [0, h] from
+    // the secant through its interval's ends, then judged where it is:
+    // valid when D > 0 and the sliding speed N/D exceeds friction.md's
+    // stick threshold, clear of both by the margins.
+    let iters = if T::EPSILON.to_f64() > 1e-10 { 4 } else { 6 };
+    let to_quarter = T::from_f64(std::f64::consts::FRAC_2_PI);
+    let tau_hi = fc.slide_hi * vscale;
+    let tau_lo = fc.slide_lo * vscale;
+    let mut count = T::ZERO;
+    let mut sure_roots = true;
+    let mut dir = [T::ONE, T::ZERO];
+    for (n, &[cj, sj, fl, fr]) in slots.iter().enumerate() {
+        let used = changes > T::from_f64(n as f64);
+        let rotate = |t: T| {
+            let (st, ct) = T::sin_cos_quarter(t * to_quarter);
+            (cj.mul_add(ct, -(sj * st)), sj.mul_add(ct, cj * st))
+        };
+        let up = fr > fl;
+        let (mut lo, mut hi) = (T::ZERO, fc.h);
+        let mut t = (fl / (fl - fr)) * fc.h;
+        let mut step = fc.h;
+        for _ in 0..iters {
+            let (cs, sn) = rotate(t);
+            let [f, fp, _] = k.at([cs, sn, cs.mul_add(cs, -(sn * sn)), two * cs * sn]);
+            let below = (f < T::ZERO) == up;
+            lo = select(below, t, lo);
+            hi = select(below, hi, t);
+            let newton = t - f / fp;
+            let next = select((newton >= lo) & (newton <= hi), newton, T::HALF * (lo + hi));
+            step = (next - t).abs();
+            t = next;
+        }
+        let (cs, sn) = rotate(t);
+        let d = (-mw2).mul_add(sn, (-mw1).mul_add(cs, wnn));
+        let num = k.numerator([cs, sn, cs.mul_add(cs, -(sn * sn)), two * cs * sn]);
+        let dpos = d > m_d;
+        let valid = dpos & (tau_hi.mul_add(-d, num) > m_f);
+        let invalid = (d < -m_d) | (dpos & (tau_lo.mul_add(-d, num) < -m_f));
+        sure_roots &= !used | ((valid | invalid) & (step <= fc.angle_tol));
+        let take = used & valid;
+        count += select(take, T::ONE, T::ZERO);
+        dir = [select(take, cs, dir[0]), select(take, sn, dir[1])];
+    }
+    let [cs, sn] = dir;
+    let d = (-mw2).mul_add(sn, (-mw1).mul_add(cs, wnn));
+    let lambda = -a / d;
+    let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
+    let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
+    let sure = !approaching | (sure_a & sure_grid & sure_roots & one_case);
+    let zero = [T::ZERO; 3];
+    let out =
+        std::array::from_fn(|k| select(approaching, select(stick_ok, stick[k], slide[k]), zero[k]));
+    (out, approaching & stick_ok, sure)
+}
+
+/// One visit of contact i in every lane: the free velocity (with the other
+/// contacts' impulses when `COUPLED`), the single-contact solve with
+/// Newton's bias `b = k min(c⁻_n, 0)`, and the impulse's effect on v and ω.
+/// `ROUGH = false` is a plane with μ = 0 (P = max(−a, 0)/W_nn · n).
+#[inline(always)]
+fn visit<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
+    let mu = c.fr.mu[i];
+    for s in 0..BLOCK {
+        let lever: [[T; 3]; 3] =
+            std::array::from_fn(|d| std::array::from_fn(|k| fr.lever[i][d][k][s]));
+        let w: [T; 6] = std::array::from_fn(|m| fr.w[i][m][s]);
+        let old = [sw.p[i][0][s], sw.p[i][1][s], sw.p[i][2][s]];
+        let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
+        if COUPLED {
+            let dv = [sw.dv[0][s], sw.dv[1][s], sw.dv[2][s]];
+            let dw = [sw.dw[0][s], sw.dw[1][s], sw.dw[2][s]];
+            // W_ii P_i, to take this contact's own impulse out.
+            let own = [
+                dot3([w[0], w[1], w[2]], old),
+                dot3([w[1], w[3], w[4]], old),
+                dot3([w[2], w[4], w[5]], old),
+            ];
+            for d in 0..3 {
+                cf[d] = cf[d] + dot3(dirs[d], dv) + dot3(lever[d], dw) - own[d];
+            }
+        }
+        let a = c.k[i].mul_add(fr.c0[i][0][s].min(T::ZERO), cf[0]);
+        let (new, stuck, sure) = if ROUGH {
+            single(&c.fr, mu, cf, a, w, fr.vscale[s])
+        } else {
+            (
+                [select(a < T::ZERO, -a / w[0], T::ZERO), T::ZERO, T::ZERO],
+                false,
+                true,
+            )
+        };
+        let dp = [new[0] - old[0], new[1] - old[1], new[2] - old[2]];
+        for k in 0..3 {
+            let lin = dp[2].mul_add(dirs[2][k], dp[1].mul_add(dirs[1][k], dp[0] * dirs[0][k]));
+            sw.dv[k][s] = lin.mul_add(c.inv_mass, sw.dv[k][s]);
+            let ang = dp[2].mul_add(lever[2][k], dp[1].mul_add(lever[1][k], dp[0] * lever[0][k]));
+            sw.dw[k][s] = ang.mul_add(c.inv_inertia[k], sw.dw[k][s]);
+        }
+        for d in 0..3 {
+            sw.p[i][d][s] = new[d];
+        }
+        let moved = dot3(dp, dp).sqrt();
+        sw.moved[s] = sw.moved[s].max(moved);
+        let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
+        sw.bits[s] = (sw.bits[s] & !stick_bit) | bit(stuck, stick_bit) | bit(!sure, UNSURE);
+    }
+}
+
+/// Every contact visited once, in scene order.
+#[inline(always)]
+fn sweep<T: Real, const N: usize, const COUPLED: bool>(
+    c: &Consts<T, N>,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    for i in 0..N {
+        if c.fr.mu[i] > T::ZERO {
+            visit::<T, N, COUPLED, true>(c, i, fr, sw);
+        } else {
+            visit::<T, N, COUPLED, false>(c, i, fr, sw);
+        }
+    }
+}
+
+/// The impulses of a frictional law on a block, then the post-impact
+/// quantities into `out` (as [`post`] does without friction), with the
+/// tangential impulse and sliding speed per contact.
+#[inline(always)]
+pub fn friction_impulses<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    law: Law,
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    for i in 0..N {
+        for d in 0..3 {
+            sw.p[i][d] = [T::ZERO; BLOCK];
+        }
+    }
+    for k in 0..3 {
+        sw.dv[k] = [T::ZERO; BLOCK];
+        sw.dw[k] = [T::ZERO; BLOCK];
+    }
+    sw.bits = [0; BLOCK];
+    let mut unconverged = [false; BLOCK];
+    match law {
+        // Each approaching contact alone: its own c⁻ (paper with friction).
+        Law::Paper => sweep::<T, N, false>(c, fr, sw),
+        Law::Pgs { sweeps } => {
+            for _ in 0..sweeps {
+                sweep::<T, N, true>(c, fr, sw);
+            }
+        }
+        // One contact: a single visit is the limit (a second moves nothing).
+        Law::Newton | Law::Stronge if N == 1 => sweep::<T, N, true>(c, fr, sw),
+        Law::Newton | Law::Stronge => {
+            let mass = c.mass;
+            for _ in 0..c.fr.gs_max {
+                sw.moved = [T::ZERO; BLOCK];
+                sweep::<T, N, true>(c, fr, sw);
+                let mut left = 0u32;
+                for s in 0..BLOCK {
+                    let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];
+                    unconverged[s] = still;
+                    left |= bit(still & (sw.bits[s] & UNSURE == 0), 1);
+                }
+                if left == 0 {
+                    break;
+                }
+            }
+        }
+        Law::Poisson => unreachable!("poisson with friction is refused by the scene"),
+    }
+    friction_post(c, x, geo, fr, sw, &unconverged, out);
+}
+
+/// Post-impact velocities, normal velocities, energy, tangential impulses
+/// and sliding speeds of a frictional block; lanes the solve could not
+/// vouch for are flagged [`RECOMPUTE`].
+#[inline(always)]
+fn friction_post<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    fr: &Frame<T, N>,
+    sw: &Sweep<T, N>,
+    unconverged: &[bool; BLOCK],
+    out: &mut LawOut<T, N>,
+) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
+    let ambiguous = T::from_f64(64.0) * T::EPSILON;
+    let stick_speed = T::from_f64(1e-9);
+    for s in 0..BLOCK {
+        let dv = [sw.dv[0][s], sw.dv[1][s], sw.dv[2][s]];
+        let dw = [sw.dw[0][s], sw.dw[1][s], sw.dw[2][s]];
+        let v: [T; 3] = std::array::from_fn(|k| x.v[k][s] + dv[k]);
+        let w: [T; 3] = std::array::from_fn(|k| x.w[k][s] + dw[k]);
+        let vscale_after = c.length.mul_add(dot3(w, w).sqrt(), dot3(v, v).sqrt());
+        let stuck_at = stick_speed * fr.vscale[s].max(vscale_after);
+        let mut status = geo.status[s];
+        let mut work = T::ZERO;
+        let mut work_abs = T::ZERO;
+        for i in 0..N {
+            let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
+            let mut after = [T::ZERO; 3];
+            for d in 0..3 {
+                let lever = [
+                    fr.lever[i][d][0][s],
+                    fr.lever[i][d][1][s],
+                    fr.lever[i][d][2][s],
+                ];
+                after[d] = fr.c0[i][d][s] + dot3(dirs[d], dv) + dot3(lever, dw);
+                let p = sw.p[i][d][s];
+                let before = fr.c0[i][d][s];
+                work = p.mul_add(before + after[d], work);
+                work_abs = p.abs().mul_add(before.abs() + after[d].abs(), work_abs);
+            }
+            let lambda = sw.p[i][0][s];
+            let stuck = sw.bits[s] & (1 << (STICK_SHIFT + i as u32)) != 0;
+            let sliding = select(
+                stuck,
+                T::ZERO,
+                after[1].mul_add(after[1], after[2] * after[2]).sqrt(),
+            );
+            out.lambda[i][s] = lambda;
+            out.vn_after[i][s] = after[0];
+            out.tangential[i][s] = sw.p[i][1][s]
+                .mul_add(sw.p[i][1][s], sw.p[i][2][s] * sw.p[i][2][s])
+                .sqrt();
+            out.sliding[i][s] = sliding;
+            status |= ((lambda > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
+            status |= bit(
+                (lambda > T::ZERO) & (stuck | (sliding <= stuck_at)),
+                1 << (STICKING_SHIFT + i as u32),
+            );
+        }
+        let t0 = geo.t_before[s];
+        let direct = T::HALF
+            * c.mass.mul_add(
+                dot3(v, v),
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
+        // ΔT = ½ Σ P_i·(c⁻_i + c⁺_i), exact for any impulses (friction.md).
+        let dt = T::HALF * work;
+        let t1 = if f32_lanes { t0 + dt } else { direct };
+        let gained = if f32_lanes {
+            dt > gain * t0
+        } else {
+            t1 > t0 + gain * t0
+        };
+        let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
+        for k in 0..3 {
+            out.v_after[k][s] = v[k];
+            out.w_after[k][s] = w[k];
+        }
+        out.t_after[s] = t1;
+        status |= bit(gained, ENERGY_GAIN)
+            | bit(
+                unsure | unconverged[s] | (sw.bits[s] & UNSURE != 0),
+                RECOMPUTE,
+            );
+        out.status[s] = status;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed-form coefficients of F and N are friction.md's
+    /// definitions, `ŝ⊥·v(θ)` and `ŝ·v(θ)` with
+    /// `v = D(θ) c_t − a (w_t − μ W_tt ŝ)`, and F′, F″ F's derivatives
+    /// (central differences), at random angles and inputs.
+    #[test]
+    fn slide_polynomials_are_the_definition() {
+        let mut state = 7u64;
+        let mut next = || {
+            state += 1;
+            (crate::sampler::rng::mix64(state) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for _ in 0..1000 {
+            let (wnn, w1, w2) = (1.0 + next().abs(), next(), next());
+            let (p, q, r) = (1.0 + next().abs(), 0.3 * next(), 1.0 + next().abs());
+            let (c1, c2, a, mu) = (next(), next(), -next().abs(), 2.0 * next().abs());
+            let k = Slide::new(mu, [c1, c2], a, [wnn, w1, w2, p, q, r]);
+            let def = |th: f64| {
+                let (sn, cs) = th.sin_cos();
+                let d = wnn - mu * (w1 * cs + w2 * sn);
+                let m = [p * cs + q * sn, q * cs + r * sn];
+                let v = [d * c1 - a * (w1 - mu * m[0]), d * c2 - a * (w2 - mu * m[1])];
+                (-sn * v[0] + cs * v[1], cs * v[0] + sn * v[1])
+            };
+            let th = 7.0 * next();
+            let g = |th: f64| [th.cos(), th.sin(), (2.0 * th).cos(), (2.0 * th).sin()];
+            let [f, fp, fpp] = k.at(g(th));
+            let n = k.numerator(g(th));
+            let (f_def, n_def) = def(th);
+            let e = 1e-4;
+            let (fa, _) = def(th + e);
+            let (fb, _) = def(th - e);
+            assert!((f - f_def).abs() < 1e-12, "F {f} vs {f_def}");
+            assert!((n - n_def).abs() < 1e-12, "N {n} vs {n_def}");
+            assert!((fp - (fa - fb) / (2.0 * e)).abs() < 1e-6, "F′ at {th}");
+            assert!(
+                (fpp - (fa - 2.0 * f_def + fb) / (e * e)).abs() < 1e-5,
+                "F″ at {th}"
+            );
+        }
+    }
+}
