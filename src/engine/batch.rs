@@ -54,20 +54,24 @@ multiversioned! {
     /// baseline; the best the CPU has is chosen at run time. A scene with
     /// friction runs the frictional kernel (its variant is always the
     /// rotational, coupled one).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         consts: &Consts<T, N>,
         sampler: &Sampler,
         laws: &[Law],
         first: u64,
-        work: &mut Work<T, N>,
+        inputs: &mut Inputs<T>,
+        geo: &mut Geometry<T, N>,
+        outs: &mut [Box<LawOut<T, N>>],
+        fr: &mut Frame<T, N>,
+        sweep: &mut Sweep<T, N>,
     ) {
         crate::lanes::dispatch::align_frame();
-        let Work { inputs, geo, outs, frame: fr, sweep, .. } = work;
         sampler.fill(first, inputs);
         if ROT && CPL && consts.fr.on {
-            frame::<T, N>(consts, inputs, fr, geo);
+            friction_frame::<T, N>(consts, inputs, fr, geo);
             for (law, out) in laws.iter().zip(outs.iter_mut()) {
-                friction_impulses::<T, N>(consts, *law, inputs, geo, fr, sweep, out);
+                friction_law::<T, N>(consts, *law, inputs, geo, fr, sweep, out);
             }
             return;
         }
@@ -77,6 +81,37 @@ multiversioned! {
             impulses::<T, N, ROT, CPL>(consts, *law, geo, out);
             post::<T, N, ROT>(consts, inputs, geo, out);
         }
+    }
+}
+
+multiversioned! {
+    /// The contact frames of a frictional block (its own entry point, so
+    /// that every array it touches comes through a reference of its own and
+    /// the loops vectorise).
+    fn friction_frame<T: Real, const N: usize>(
+        consts: &Consts<T, N>,
+        inputs: &Inputs<T>,
+        fr: &mut Frame<T, N>,
+        geo: &mut Geometry<T, N>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        frame::<T, N>(consts, inputs, fr, geo);
+    }
+}
+
+multiversioned! {
+    /// One frictional law on a block: impulses and post-impact quantities.
+    fn friction_law<T: Real, const N: usize>(
+        consts: &Consts<T, N>,
+        law: Law,
+        inputs: &Inputs<T>,
+        geo: &Geometry<T, N>,
+        fr: &Frame<T, N>,
+        sweep: &mut Sweep<T, N>,
+        out: &mut LawOut<T, N>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        friction_impulses::<T, N>(consts, law, inputs, geo, fr, sweep, out);
     }
 }
 
@@ -132,7 +167,17 @@ pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: boo
         ..
     } = *ctx;
     let laws = scene.laws();
-    block_lanes::<T, N, ROT, CPL>(consts, sampler, laws, first, work);
+    block_lanes::<T, N, ROT, CPL>(
+        consts,
+        sampler,
+        laws,
+        first,
+        &mut work.inputs,
+        &mut work.geo,
+        &mut work.outs,
+        &mut work.frame,
+        &mut work.sweep,
+    );
     fallback(scene, sampler, laws, first, work, count, Some(&mut *acc));
     block_stats(
         &work.geo,

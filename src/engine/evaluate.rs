@@ -48,7 +48,17 @@ fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     let mut start = first;
     while out.len() < count {
         let n = (count - out.len()).min(BLOCK);
-        block_lanes::<T, N, ROT, CPL>(&consts, &sampler, &[law], start, &mut work);
+        block_lanes::<T, N, ROT, CPL>(
+            &consts,
+            &sampler,
+            &[law],
+            start,
+            &mut work.inputs,
+            &mut work.geo,
+            &mut work.outs,
+            &mut work.frame,
+            &mut work.sweep,
+        );
         fallback(scene, &sampler, &[law], start, &mut work, n, None);
         let o = &work.outs[0];
         let x = &work.inputs;

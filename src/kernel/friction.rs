@@ -37,7 +37,7 @@ use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
 
 /// Intervals of the slide angle's grid over [0, 2π).
-const GRID: usize = 16;
+const GRID: usize = 32;
 
 /// Contact i's last visit took the stick case (bit `STICK_SHIFT + i` of
 /// the sweep bits).
@@ -56,10 +56,9 @@ pub struct FrictionConsts<T, const N: usize> {
     tangent: [[[T; 3]; 2]; N],
     /// cos θ_j, sin θ_j, cos 2θ_j, sin 2θ_j at θ_j = 2πj/GRID, j ≤ GRID.
     grid: [[T; 4]; GRID + 1],
-    /// The grid step 2π/GRID, half of it, and its square over 8.
+    /// The grid step 2π/GRID and half of it.
     h: T,
     half_h: T,
-    h2_8: T,
     /// Decisions closer than these to their boundary are not taken here:
     /// |a| (take-off), relative to the velocity scale; |f| against μλ
     /// (stick), relative; the sliding speed against friction.md's stick
@@ -102,7 +101,6 @@ impl<T: Real, const N: usize> FrictionConsts<T, N> {
             }),
             h: T::from_f64(h),
             half_h: T::from_f64(0.5 * h),
-            h2_8: T::from_f64(h * h / 8.0),
             take_off_band: T::from_f64(if f32_lanes { 1e-5 } else { 1e-12 }),
             stick_band: T::from_f64(band),
             slide_hi: T::from_f64(stick_speed + band),
@@ -141,6 +139,8 @@ pub struct Sweep<T, const N: usize> {
     moved: [T; BLOCK],
     /// Stick bits per contact and [`UNSURE`].
     bits: [u32; BLOCK],
+    /// The current visit's single-contact solve.
+    solve: Solve<T>,
 }
 
 impl<T: Real, const N: usize> Frame<T, N> {
@@ -162,6 +162,7 @@ impl<T: Real, const N: usize> Sweep<T, N> {
             dw: [[T::ZERO; BLOCK]; 3],
             moved: [T::ZERO; BLOCK],
             bits: [0; BLOCK],
+            solve: Solve::empty(),
         })
     }
 }
@@ -287,21 +288,28 @@ impl<T: Real> Slide<T> {
         }
     }
 
-    /// F, F′, F″ at the angle with (cos θ, sin θ, cos 2θ, sin 2θ) = `g`.
+    /// F, F′, F″, F‴, F⁗ at the angle with (cos θ, sin θ, cos 2θ, sin 2θ)
+    /// = `g`.
     #[inline(always)]
-    fn at(&self, g: [T; 4]) -> [T; 3] {
+    fn at(&self, g: [T; 4]) -> [T; 5] {
         let Self {
             a0, a1, b1, a2, b2, ..
         } = *self;
         let [cs, sn, c2t, s2t] = g;
         let two = T::ONE + T::ONE;
         let four = two + two;
+        let eight = four + four;
         [
             b2.mul_add(s2t, a2.mul_add(c2t, b1.mul_add(sn, a1.mul_add(cs, a0)))),
             (two * b2).mul_add(c2t, (-two * a2).mul_add(s2t, b1.mul_add(cs, -(a1 * sn)))),
             (-four * b2).mul_add(
                 s2t,
                 (-four * a2).mul_add(c2t, (-b1).mul_add(sn, -(a1 * cs))),
+            ),
+            (-eight * b2).mul_add(c2t, (eight * a2).mul_add(s2t, (-b1).mul_add(cs, a1 * sn))),
+            (eight * two * b2).mul_add(
+                s2t,
+                (eight * two * a2).mul_add(c2t, b1.mul_add(sn, a1 * cs)),
             ),
         ]
     }
@@ -320,186 +328,130 @@ impl<T: Real> Slide<T> {
     }
 }
 
-/// Whether `g > m` on a whole grid interval, from its values and slopes
-/// at both ends and `l2 ≥ |g″|`: the quadratic lower bound from each end
-/// is concave, so it is positive on its half of the interval when it is at
-/// both ends of that half.
+/// Whether `g > m` on a whole grid interval, from g, g′ and g″ at both
+/// ends and `l3 ≥ |g‴|`. On the half next to an end, g″ ≥ κ = g″(end) −
+/// l3·h/2, so g lies above the quadratic with that value, slope and
+/// curvature κ; the quadratic's least value on the half is at one of its
+/// ends or at its vertex (clamped into the half).
 #[inline(always)]
 fn positive_on<T: Real, const N: usize>(
     fc: &FrictionConsts<T, N>,
     g: [T; 2],
     slope: [T; 2],
-    l2: T,
+    curve: [T; 2],
+    l3: T,
     m: T,
 ) -> bool {
-    let q = l2 * fc.h2_8;
-    (g[0] > m)
-        & (g[1] > m)
-        & (slope[0].mul_add(fc.half_h, g[0]) - q > m)
-        & ((-slope[1]).mul_add(fc.half_h, g[1]) - q > m)
+    let half = fc.half_h;
+    // From the left end in t ≥ 0, from the right end in t = θ_j+1 − θ ≥ 0.
+    let side = |g0: T, s0: T, c0: T| {
+        let kappa = l3.mul_add(-half, c0);
+        let vertex = (-s0 / kappa).max(T::ZERO).min(half);
+        let q = |t: T| (T::HALF * kappa).mul_add(t * t, s0.mul_add(t, g0));
+        (q(half) > m) & (q(vertex) > m)
+    };
+    (g[0] > m) & (g[1] > m) & side(g[0], slope[0], curve[0]) & side(g[1], -slope[1], curve[1])
 }
 
-/// The single-contact solve of friction.md in one lane: free
-/// contact-point velocity `c` (frame coordinates), `a = c_n + b`, the
-/// Delassus block `w` (nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂), μ > 0 and the
-/// velocity scale. Returns the impulse (frame coordinates), whether it is
-/// the stick case, and whether the certificate vouches for it.
-#[inline(always)]
-fn single<T: Real, const N: usize>(
-    fc: &FrictionConsts<T, N>,
-    mu: T,
-    c: [T; 3],
-    a: T,
-    w: [T; 6],
-    vscale: T,
-) -> ([T; 3], bool, bool) {
-    let [wnn, w1, w2, p, q, r] = w;
-    let [_, c1, c2] = c;
-    let two = T::ONE + T::ONE;
-    // 1. Take-off.
-    let approaching = a < T::ZERO;
-    let sure_a = a.abs() > fc.take_off_band * vscale;
-    // 2. Stick: W P = (−a, −c₁, −c₂), by the symmetric cofactors.
-    let k00 = p.mul_add(r, -(q * q));
-    let k01 = w2.mul_add(q, -(w1 * r));
-    let k02 = w1.mul_add(q, -(p * w2));
-    let k11 = wnn.mul_add(r, -(w2 * w2));
-    let k12 = w1.mul_add(w2, -(wnn * q));
-    let k22 = wnn.mul_add(p, -(w1 * w1));
-    let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
-    let rhs = [-a, -c1, -c2];
-    let stick = [
-        dot3([k00, k01, k02], rhs) * inv,
-        dot3([k01, k11, k12], rhs) * inv,
-        dot3([k02, k12, k22], rhs) * inv,
-    ];
-    let f_stick = stick[1].mul_add(stick[1], stick[2] * stick[2]).sqrt();
-    let limit = mu * stick[0];
-    let stick_ok = (stick[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
-    let stick_no = f_stick >= limit * (T::ONE + fc.stick_band);
-    // 3. Slide: the roots of F, located on the grid.
-    let k = Slide::new(mu, [c1, c2], a, w);
-    let (mw1, mw2) = (mu * w1, mu * w2);
-    let f1 = k.a1.mul_add(k.a1, k.b1 * k.b1).sqrt();
-    let f2 = k.a2.mul_add(k.a2, k.b2 * k.b2).sqrt();
-    // |F‴| ≤ l3 (a degree-2 polynomial's k-th derivative is at most
-    // |c₁| + 2^k |c₂| in amplitude).
-    let l3 = T::from_f64(8.0).mul_add(f2, f1);
-    // Margins: values within rounding (and, in f32, within the inputs' own
-    // rounding) of zero decide nothing.
-    let ld = mw1.mul_add(mw1, mw2 * mw2).sqrt();
-    let mag = (wnn + ld) * (c1.abs() + c2.abs())
-        + a.abs() * ((w1.abs() + w2.abs()) + mu * (p.abs() + q.abs() + r.abs()));
-    let m_f = fc.round * mag;
-    let m_d = fc.round * (wnn + ld);
-    let mut left = k.at(fc.grid[0]);
-    let mut changes = T::ZERO;
-    let mut sure_grid = true;
-    // The intervals where F changes sign, at most four (F has degree 2):
-    // (cos θ_j, sin θ_j, F(θ_j), F(θ_j+1)).
-    let mut slots = [[T::ONE, T::ZERO, -T::ONE, T::ONE]; 4];
-    for j in 0..GRID {
-        let right = k.at(fc.grid[j + 1]);
-        let [f0, fp0, fpp0] = left;
-        let [f1v, fp1, fpp1] = right;
-        let rise = (f0 <= T::ZERO) & (f1v > T::ZERO);
-        let fall = (f0 > T::ZERO) & (f1v <= T::ZERO);
-        // |F″| on the interval, from its ends and |F‴| ≤ l3.
-        let l2 = fpp0.abs().max(fpp1.abs()) + l3 * fc.half_h;
-        let root_free = positive_on(fc, [f0, f1v], [fp0, fp1], l2, m_f)
-            | positive_on(fc, [-f0, -f1v], [-fp0, -fp1], l2, m_f);
-        // One root: F′ keeps the sign of the change on the whole interval.
-        let monotone = (rise & positive_on(fc, [fp0, fp1], [fpp0, fpp1], l3, m_f))
-            | (fall & positive_on(fc, [-fp0, -fp1], [-fpp0, -fpp1], l3, m_f));
-        let change = rise | fall;
-        sure_grid &= (change & monotone) | (!change & root_free);
-        for (n, slot) in slots.iter_mut().enumerate() {
-            let take = change & (changes == T::from_f64(n as f64));
-            let new = [fc.grid[j][0], fc.grid[j][1], f0, f1v];
-            for m in 0..4 {
-                slot[m] = select(take, new[m], slot[m]);
-            }
-        }
-        changes += select(change, T::ONE, T::ZERO);
-        left = right;
-    }
-    // Each root: refined by safeguarded Newton in t = θ − θ_j ∈ [0, h] from
-    // the secant through its interval's ends, then judged where it is:
-    // valid when D > 0 and the sliding speed N/D exceeds friction.md's
-    // stick threshold, clear of both by the margins.
-    let iters = if T::EPSILON.to_f64() > 1e-10 { 4 } else { 6 };
-    let to_quarter = T::from_f64(std::f64::consts::FRAC_2_PI);
-    let tau_hi = fc.slide_hi * vscale;
-    let tau_lo = fc.slide_lo * vscale;
-    let mut count = T::ZERO;
-    let mut sure_roots = true;
-    let mut dir = [T::ONE, T::ZERO];
-    for (n, &[cj, sj, fl, fr]) in slots.iter().enumerate() {
-        let used = changes > T::from_f64(n as f64);
-        let rotate = |t: T| {
-            let (st, ct) = T::sin_cos_quarter(t * to_quarter);
-            (cj.mul_add(ct, -(sj * st)), sj.mul_add(ct, cj * st))
-        };
-        let up = fr > fl;
-        let (mut lo, mut hi) = (T::ZERO, fc.h);
-        let mut t = (fl / (fl - fr)) * fc.h;
-        let mut step = fc.h;
-        for _ in 0..iters {
-            let (cs, sn) = rotate(t);
-            let [f, fp, _] = k.at([cs, sn, cs.mul_add(cs, -(sn * sn)), two * cs * sn]);
-            let below = (f < T::ZERO) == up;
-            lo = select(below, t, lo);
-            hi = select(below, hi, t);
-            let newton = t - f / fp;
-            let next = select((newton >= lo) & (newton <= hi), newton, T::HALF * (lo + hi));
-            step = (next - t).abs();
-            t = next;
-        }
-        let (cs, sn) = rotate(t);
-        let d = (-mw2).mul_add(sn, (-mw1).mul_add(cs, wnn));
-        let num = k.numerator([cs, sn, cs.mul_add(cs, -(sn * sn)), two * cs * sn]);
-        let dpos = d > m_d;
-        let valid = dpos & (tau_hi.mul_add(-d, num) > m_f);
-        let invalid = (d < -m_d) | (dpos & (tau_lo.mul_add(-d, num) < -m_f));
-        sure_roots &= !used | ((valid | invalid) & (step <= fc.angle_tol));
-        let take = used & valid;
-        count += select(take, T::ONE, T::ZERO);
-        dir = [select(take, cs, dir[0]), select(take, sn, dir[1])];
-    }
-    let [cs, sn] = dir;
-    let d = (-mw2).mul_add(sn, (-mw1).mul_add(cs, wnn));
-    let lambda = -a / d;
-    let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
-    let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
-    let sure = !approaching | (sure_a & sure_grid & sure_roots & one_case);
-    let zero = [T::ZERO; 3];
-    let out =
-        std::array::from_fn(|k| select(approaching, select(stick_ok, stick[k], slide[k]), zero[k]));
-    (out, approaching & stick_ok, sure)
+/// One contact's single-contact solve across a block, pass by pass (each
+/// pass a loop over the lanes, so that it vectorises): the set-up with the
+/// stick case, the grid intervals, the refinement of each root, the
+/// choice. Cache-line aligned; one per worker.
+#[repr(C, align(64))]
+pub struct Solve<T> {
+    /// The free contact-point velocity (frame coordinates) and `a = c_n + b`.
+    cf: [[T; BLOCK]; 3],
+    a: [T; BLOCK],
+    /// The stick case's impulse, and whether it is valid, or clearly not.
+    stick: [[T; BLOCK]; 3],
+    stick_ok: [bool; BLOCK],
+    stick_no: [bool; BLOCK],
+    /// [`Slide`]'s coefficients: A0, A1, B1, A2, B2, N0.
+    coef: [[T; BLOCK]; 6],
+    /// Bounds on |F‴|, |F⁗| and |F⁽⁵⁾|, and the margins of F (and N) and
+    /// of D.
+    l3: [T; BLOCK],
+    l4: [T; BLOCK],
+    l5: [T; BLOCK],
+    m_f: [T; BLOCK],
+    m_d: [T; BLOCK],
+    /// F, F′, F″, F‴, F⁗ at the current interval's left end.
+    left: [[T; BLOCK]; 5],
+    /// Sign changes of F so far, and whether every interval was certified.
+    changes: [T; BLOCK],
+    grid_ok: [bool; BLOCK],
+    /// Per sign change (at most four): the interval index j, F(θ_j),
+    /// F(θ_j+1).
+    slot: [[[T; BLOCK]; 3]; 4],
+    /// The refinement of the current root: cos θ_j, sin θ_j, t, lo, hi and
+    /// the last step.
+    newton: [[T; BLOCK]; 6],
+    /// Valid slide roots, the last one's direction, and whether every root
+    /// was judged clear of the margins.
+    count: [T; BLOCK],
+    dir: [[T; BLOCK]; 2],
+    roots_ok: [bool; BLOCK],
 }
 
-/// One visit of contact i in every lane: the free velocity (with the other
-/// contacts' impulses when `COUPLED`), the single-contact solve with
-/// Newton's bias `b = k min(c⁻_n, 0)`, and the impulse's effect on v and ω.
-/// `ROUGH = false` is a plane with μ = 0 (P = max(−a, 0)/W_nn · n).
+impl<T: Real> Solve<T> {
+    fn empty() -> Self {
+        let z = [T::ZERO; BLOCK];
+        Self {
+            cf: [z; 3],
+            a: z,
+            stick: [z; 3],
+            stick_ok: [false; BLOCK],
+            stick_no: [false; BLOCK],
+            coef: [z; 6],
+            l3: z,
+            l4: z,
+            l5: z,
+            m_f: z,
+            m_d: z,
+            left: [z; 5],
+            changes: z,
+            grid_ok: [false; BLOCK],
+            slot: [[z; 3]; 4],
+            newton: [z; 6],
+            count: z,
+            dir: [z; 2],
+            roots_ok: [false; BLOCK],
+        }
+    }
+}
+
+/// The Delassus block of contact i in lane s.
 #[inline(always)]
-fn visit<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
+fn w_of<T: Real, const N: usize>(fr: &Frame<T, N>, i: usize, s: usize) -> [T; 6] {
+    std::array::from_fn(|m| fr.w[i][m][s])
+}
+
+/// Set-up of a visit of contact i: the free velocity (with the other
+/// contacts' impulses when `COUPLED`), `a` with Newton's bias
+/// `b = k min(c⁻_n, 0)`, the stick case (`W P = (−a, −c_t)` by the
+/// symmetric cofactors), and the slide polynomials with their bounds and
+/// margins.
+#[inline(always)]
+fn setup<T: Real, const N: usize, const COUPLED: bool>(
     c: &Consts<T, N>,
     i: usize,
     fr: &Frame<T, N>,
     sw: &mut Sweep<T, N>,
 ) {
-    let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
-    let mu = c.fr.mu[i];
+    let fc = &c.fr;
+    let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
+    let mu = fc.mu[i];
+    let Sweep {
+        p, dv, dw, solve, ..
+    } = sw;
+    let k = &mut *solve;
     for s in 0..BLOCK {
-        let lever: [[T; 3]; 3] =
-            std::array::from_fn(|d| std::array::from_fn(|k| fr.lever[i][d][k][s]));
-        let w: [T; 6] = std::array::from_fn(|m| fr.w[i][m][s]);
-        let old = [sw.p[i][0][s], sw.p[i][1][s], sw.p[i][2][s]];
+        let w = w_of(fr, i, s);
         let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
         if COUPLED {
-            let dv = [sw.dv[0][s], sw.dv[1][s], sw.dv[2][s]];
-            let dw = [sw.dw[0][s], sw.dw[1][s], sw.dw[2][s]];
+            let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
+            let dv = [dv[0][s], dv[1][s], dv[2][s]];
+            let dw = [dw[0][s], dw[1][s], dw[2][s]];
             // W_ii P_i, to take this contact's own impulse out.
             let own = [
                 dot3([w[0], w[1], w[2]], old),
@@ -507,34 +459,316 @@ fn visit<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
                 dot3([w[2], w[4], w[5]], old),
             ];
             for d in 0..3 {
-                cf[d] = cf[d] + dot3(dirs[d], dv) + dot3(lever[d], dw) - own[d];
+                let lever = [
+                    fr.lever[i][d][0][s],
+                    fr.lever[i][d][1][s],
+                    fr.lever[i][d][2][s],
+                ];
+                cf[d] = cf[d] + dot3(dirs[d], dv) + dot3(lever, dw) - own[d];
             }
         }
         let a = c.k[i].mul_add(fr.c0[i][0][s].min(T::ZERO), cf[0]);
+        let [wnn, w1, w2, pp, q, r] = w;
+        let [_, c1, c2] = cf;
+        let k00 = pp.mul_add(r, -(q * q));
+        let k01 = w2.mul_add(q, -(w1 * r));
+        let k02 = w1.mul_add(q, -(pp * w2));
+        let k11 = wnn.mul_add(r, -(w2 * w2));
+        let k12 = w1.mul_add(w2, -(wnn * q));
+        let k22 = wnn.mul_add(pp, -(w1 * w1));
+        let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
+        let rhs = [-a, -c1, -c2];
+        let stick = [
+            dot3([k00, k01, k02], rhs) * inv,
+            dot3([k01, k11, k12], rhs) * inv,
+            dot3([k02, k12, k22], rhs) * inv,
+        ];
+        let f_stick = stick[1].mul_add(stick[1], stick[2] * stick[2]).sqrt();
+        let limit = mu * stick[0];
+        k.stick_ok[s] = (stick[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
+        k.stick_no[s] = f_stick >= limit * (T::ONE + fc.stick_band);
+        let sl = Slide::new(mu, [c1, c2], a, w);
+        let coef = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
+        let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
+        let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
+        // |F⁽ᵏ⁾| ≤ |c₁| + 2ᵏ|c₂| for a degree-2 polynomial's amplitudes.
+        k.l3[s] = T::from_f64(8.0).mul_add(f2, f1);
+        k.l4[s] = T::from_f64(16.0).mul_add(f2, f1);
+        k.l5[s] = T::from_f64(32.0).mul_add(f2, f1);
+        // Margins: values within rounding (and, in f32, within the inputs'
+        // own rounding) of zero decide nothing.
+        let (mw1, mw2) = (mu * w1, mu * w2);
+        let ld = mw1.mul_add(mw1, mw2 * mw2).sqrt();
+        let mag = (wnn + ld) * (c1.abs() + c2.abs())
+            + a.abs() * ((w1.abs() + w2.abs()) + mu * (pp.abs() + q.abs() + r.abs()));
+        k.m_f[s] = fc.round * mag;
+        k.m_d[s] = fc.round * (wnn + ld);
+        let left = sl.at(fc.grid[0]);
+        for m in 0..3 {
+            k.cf[m][s] = cf[m];
+            k.stick[m][s] = stick[m];
+        }
+        for m in 0..5 {
+            k.left[m][s] = left[m];
+        }
+        for m in 0..6 {
+            k.coef[m][s] = coef[m];
+        }
+        k.a[s] = a;
+        k.changes[s] = T::ZERO;
+        k.grid_ok[s] = true;
+        k.count[s] = T::ZERO;
+        k.roots_ok[s] = true;
+        k.dir[0][s] = T::ONE;
+        k.dir[1][s] = T::ZERO;
+    }
+}
+
+/// The slide polynomials of lane s.
+#[inline(always)]
+fn slide_of<T: Real>(k: &Solve<T>, s: usize) -> Slide<T> {
+    Slide {
+        a0: k.coef[0][s],
+        a1: k.coef[1][s],
+        b1: k.coef[2][s],
+        a2: k.coef[3][s],
+        b2: k.coef[4][s],
+        n0: k.coef[5][s],
+    }
+}
+
+/// Grid interval j of every lane: certified root-free, or holding exactly
+/// one root (F′ keeps the sign of the change), which takes the next slot.
+#[inline(always)]
+fn interval<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, j: usize, k: &mut Solve<T>) {
+    let index = T::from_f64(j as f64);
+    let g = fc.grid[j + 1];
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let right = sl.at(g);
+        let [f0, fp0, fpp0, fppp0, f40] = std::array::from_fn(|m| k.left[m][s]);
+        let [f1, fp1, fpp1, fppp1, f41] = right;
+        let (l3, m_f) = (k.l3[s], k.m_f[s]);
+        let rise = (f0 <= T::ZERO) & (f1 > T::ZERO);
+        let fall = (f0 > T::ZERO) & (f1 <= T::ZERO);
+        let (l4, l5) = (k.l4[s], k.l5[s]);
+        let root_free = positive_on(fc, [f0, f1], [fp0, fp1], [fpp0, fpp1], l3, m_f)
+            | positive_on(fc, [-f0, -f1], [-fp0, -fp1], [-fpp0, -fpp1], l3, m_f);
+        // One root where F changes sign: F′ keeps the sign of the change
+        // (F monotone), or F″ keeps a sign (F convex or concave: at most
+        // two roots, and an odd count).
+        let monotone = (rise & positive_on(fc, [fp0, fp1], [fpp0, fpp1], [fppp0, fppp1], l4, m_f))
+            | (fall & positive_on(fc, [-fp0, -fp1], [-fpp0, -fpp1], [-fppp0, -fppp1], l4, m_f));
+        let convex = positive_on(fc, [fpp0, fpp1], [fppp0, fppp1], [f40, f41], l5, m_f)
+            | positive_on(fc, [-fpp0, -fpp1], [-fppp0, -fppp1], [-f40, -f41], l5, m_f);
+        let one_root = monotone | convex;
+        let change = rise | fall;
+        k.grid_ok[s] &= (change & one_root) | (!change & root_free);
+        let changes = k.changes[s];
+        let new = [index, f0, f1];
+        for n in 0..4 {
+            let take = change & (changes == T::from_f64(n as f64));
+            for m in 0..3 {
+                k.slot[n][m][s] = select(take, new[m], k.slot[n][m][s]);
+            }
+        }
+        k.changes[s] = changes + select(change, T::ONE, T::ZERO);
+        for m in 0..5 {
+            k.left[m][s] = right[m];
+        }
+    }
+}
+
+/// Starts the refinement of root n: cos θ_j, sin θ_j of its interval and
+/// the secant through the interval's ends, in t = θ − θ_j ∈ [0, h].
+#[inline(always)]
+fn root_start<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, n: usize, k: &mut Solve<T>) {
+    let per_turn = T::from_f64(1.0 / GRID as f64);
+    for s in 0..BLOCK {
+        let used = k.changes[s] > T::from_f64(n as f64);
+        let j = select(used, k.slot[n][0][s], T::ZERO);
+        let (sn, cs) = (j * per_turn).sin_cos_2pi();
+        let (fl, fr) = (k.slot[n][1][s], k.slot[n][2][s]);
+        let t = select(used, fl / (fl - fr), T::HALF) * fc.h;
+        let start = [cs, sn, t, T::ZERO, fc.h, fc.h];
+        for m in 0..6 {
+            k.newton[m][s] = start[m];
+        }
+    }
+}
+
+/// cos and sin of θ_j + t.
+#[inline(always)]
+fn rotate<T: Real>(cj: T, sj: T, t: T) -> (T, T) {
+    let (st, ct) = T::sin_cos_quarter(t * T::from_f64(std::f64::consts::FRAC_2_PI));
+    (cj.mul_add(ct, -(sj * st)), sj.mul_add(ct, cj * st))
+}
+
+/// (cos θ, sin θ, cos 2θ, sin 2θ) from cos θ and sin θ.
+#[inline(always)]
+fn angles<T: Real>(cs: T, sn: T) -> [T; 4] {
+    [cs, sn, cs.mul_add(cs, -(sn * sn)), (cs + cs) * sn]
+}
+
+/// One safeguarded Newton step on root n: the bracket keeps the root, and a
+/// step that leaves it is replaced by bisection.
+#[inline(always)]
+fn root_step<T: Real>(n: usize, k: &mut Solve<T>) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let [cj, sj, t, lo, hi, _] = std::array::from_fn(|m| k.newton[m][s]);
+        let up = k.slot[n][2][s] > k.slot[n][1][s];
+        let (cs, sn) = rotate(cj, sj, t);
+        let [f, fp, ..] = sl.at(angles(cs, sn));
+        let below = (f < T::ZERO) == up;
+        let lo = select(below, t, lo);
+        let hi = select(below, hi, t);
+        let newton = t - f / fp;
+        let next = select((newton >= lo) & (newton <= hi), newton, T::HALF * (lo + hi));
+        let now = [cj, sj, next, lo, hi, (next - t).abs()];
+        for m in 0..6 {
+            k.newton[m][s] = now[m];
+        }
+    }
+}
+
+/// Judges root n where it is: valid when D > 0 and the sliding speed N/D
+/// exceeds friction.md's stick threshold, clear of both by the margins.
+#[inline(always)]
+fn root_judge<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    i: usize,
+    n: usize,
+    fr: &Frame<T, N>,
+    k: &mut Solve<T>,
+) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let used = k.changes[s] > T::from_f64(n as f64);
+        let [cj, sj, t, _, _, step] = std::array::from_fn(|m| k.newton[m][s]);
+        let (cs, sn) = rotate(cj, sj, t);
+        let [wnn, w1, w2, ..] = w_of(fr, i, s);
+        let d = (-mu * w2).mul_add(sn, (-mu * w1).mul_add(cs, wnn));
+        let num = sl.numerator(angles(cs, sn));
+        let vscale = fr.vscale[s];
+        let (m_f, m_d) = (k.m_f[s], k.m_d[s]);
+        let dpos = d > m_d;
+        let valid = dpos & ((fc.slide_hi * vscale).mul_add(-d, num) > m_f);
+        let invalid = (d < -m_d) | (dpos & ((fc.slide_lo * vscale).mul_add(-d, num) < -m_f));
+        k.roots_ok[s] &= !used | ((valid | invalid) & (step <= fc.angle_tol));
+        let take = used & valid;
+        k.count[s] += select(take, T::ONE, T::ZERO);
+        k.dir[0][s] = select(take, cs, k.dir[0][s]);
+        k.dir[1][s] = select(take, sn, k.dir[1][s]);
+    }
+}
+
+/// The end of a visit of contact i: the impulse (take-off, stick, or the
+/// one valid slide root; with μ = 0, `max(−a, 0)/W_nn · n`), its effect on
+/// v and ω, the largest move, and the stick and unsure bits.
+#[inline(always)]
+fn finish<T: Real, const N: usize, const ROUGH: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let fc = &c.fr;
+    let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
+    let mu = fc.mu[i];
+    let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
+    let Sweep {
+        p,
+        dv,
+        dw,
+        moved,
+        bits,
+        solve,
+    } = sw;
+    let k = &*solve;
+    for s in 0..BLOCK {
+        let a = k.a[s];
+        let w = w_of(fr, i, s);
+        let approaching = a < T::ZERO;
         let (new, stuck, sure) = if ROUGH {
-            single(&c.fr, mu, cf, a, w, fr.vscale[s])
+            let [cs, sn] = [k.dir[0][s], k.dir[1][s]];
+            let d = (-mu * w[2]).mul_add(sn, (-mu * w[1]).mul_add(cs, w[0]));
+            let lambda = -a / d;
+            let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
+            let (stick_ok, stick_no) = (k.stick_ok[s], k.stick_no[s]);
+            let count = k.count[s];
+            let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
+            let sure_a = a.abs() > fc.take_off_band * fr.vscale[s];
+            let sure = !approaching | (sure_a & k.grid_ok[s] & k.roots_ok[s] & one_case);
+            let new: [T; 3] = std::array::from_fn(|m| {
+                select(
+                    approaching,
+                    select(stick_ok, k.stick[m][s], slide[m]),
+                    T::ZERO,
+                )
+            });
+            (new, approaching & stick_ok, sure)
         } else {
             (
-                [select(a < T::ZERO, -a / w[0], T::ZERO), T::ZERO, T::ZERO],
+                [select(approaching, -a / w[0], T::ZERO), T::ZERO, T::ZERO],
                 false,
                 true,
             )
         };
+        let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
         let dp = [new[0] - old[0], new[1] - old[1], new[2] - old[2]];
-        for k in 0..3 {
-            let lin = dp[2].mul_add(dirs[2][k], dp[1].mul_add(dirs[1][k], dp[0] * dirs[0][k]));
-            sw.dv[k][s] = lin.mul_add(c.inv_mass, sw.dv[k][s]);
-            let ang = dp[2].mul_add(lever[2][k], dp[1].mul_add(lever[1][k], dp[0] * lever[0][k]));
-            sw.dw[k][s] = ang.mul_add(c.inv_inertia[k], sw.dw[k][s]);
+        for m in 0..3 {
+            let lever = [
+                fr.lever[i][0][m][s],
+                fr.lever[i][1][m][s],
+                fr.lever[i][2][m][s],
+            ];
+            let lin = dp[2].mul_add(dirs[2][m], dp[1].mul_add(dirs[1][m], dp[0] * dirs[0][m]));
+            dv[m][s] = lin.mul_add(c.inv_mass, dv[m][s]);
+            let ang = dp[2].mul_add(lever[2], dp[1].mul_add(lever[1], dp[0] * lever[0]));
+            dw[m][s] = ang.mul_add(c.inv_inertia[m], dw[m][s]);
+            p[i][m][s] = new[m];
         }
-        for d in 0..3 {
-            sw.p[i][d][s] = new[d];
-        }
-        let moved = dot3(dp, dp).sqrt();
-        sw.moved[s] = sw.moved[s].max(moved);
-        let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
-        sw.bits[s] = (sw.bits[s] & !stick_bit) | bit(stuck, stick_bit) | bit(!sure, UNSURE);
+        moved[s] = moved[s].max(dot3(dp, dp).sqrt());
+        bits[s] = (bits[s] & !stick_bit) | bit(stuck, stick_bit) | bit(!sure, UNSURE);
     }
+}
+
+/// One visit of contact i in every lane (friction.md's single-contact
+/// solve, or with μ = 0 its closed form).
+#[inline(always)]
+fn visit<T: Real, const N: usize, const COUPLED: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let fc = &c.fr;
+    setup::<T, N, COUPLED>(c, i, fr, sw);
+    if fc.mu[i] == T::ZERO {
+        finish::<T, N, false>(c, i, fr, sw);
+        return;
+    }
+    let k = &mut sw.solve;
+    for j in 0..GRID {
+        interval(fc, j, k);
+    }
+    let iters = if T::EPSILON.to_f64() > 1e-10 { 5 } else { 8 };
+    for n in 0..4 {
+        // Blocks where no lane has this many roots skip it (no lane's
+        // answer changes).
+        let used = k.changes.iter().any(|&x| x > T::from_f64(n as f64));
+        if !used {
+            break;
+        }
+        root_start(fc, n, k);
+        for _ in 0..iters {
+            root_step(n, k);
+        }
+        root_judge(fc, fc.mu[i], i, n, fr, k);
+    }
+    finish::<T, N, true>(c, i, fr, sw);
 }
 
 /// Every contact visited once, in scene order.
@@ -545,11 +779,7 @@ fn sweep<T: Real, const N: usize, const COUPLED: bool>(
     sw: &mut Sweep<T, N>,
 ) {
     for i in 0..N {
-        if c.fr.mu[i] > T::ZERO {
-            visit::<T, N, COUPLED, true>(c, i, fr, sw);
-        } else {
-            visit::<T, N, COUPLED, false>(c, i, fr, sw);
-        }
+        visit::<T, N, COUPLED>(c, i, fr, sw);
     }
 }
 
@@ -711,7 +941,7 @@ mod tests {
 
     /// The closed-form coefficients of F and N are friction.md's
     /// definitions, `ŝ⊥·v(θ)` and `ŝ·v(θ)` with
-    /// `v = D(θ) c_t − a (w_t − μ W_tt ŝ)`, and F′, F″ F's derivatives
+    /// `v = D(θ) c_t − a (w_t − μ W_tt ŝ)`, and F′ to F⁗ F's derivatives
     /// (central differences), at random angles and inputs.
     #[test]
     fn slide_polynomials_are_the_definition() {
@@ -734,7 +964,16 @@ mod tests {
             };
             let th = 7.0 * next();
             let g = |th: f64| [th.cos(), th.sin(), (2.0 * th).cos(), (2.0 * th).sin()];
-            let [f, fp, fpp] = k.at(g(th));
+            let [f, fp, fpp, fppp, f4] = k.at(g(th));
+            let [.., fpppa, _] = k.at(g(th + 1e-4));
+            let [.., fpppb, _] = k.at(g(th - 1e-4));
+            assert!((f4 - (fpppa - fpppb) / 2e-4).abs() < 1e-6, "F⁗ at {th}");
+            let [_, fpa, ..] = k.at(g(th + 1e-4));
+            let [_, fpb, ..] = k.at(g(th - 1e-4));
+            assert!(
+                (fppp - (fpa - 2.0 * fp + fpb) / 1e-8).abs() < 1e-5,
+                "F‴ at {th}"
+            );
             let n = k.numerator(g(th));
             let (f_def, n_def) = def(th);
             let e = 1e-4;
