@@ -44,6 +44,9 @@ const GRID: usize = 32;
 const STICK_SHIFT: u32 = 0;
 /// Some visit of the lane could not be certified.
 const UNSURE: u32 = 1 << 8;
+/// Contact i's velocity changed after its last visit (bit
+/// `MOVED_SHIFT + i`): another contact's impulse moved since.
+const MOVED_SHIFT: u32 = 12;
 
 /// The friction constants of a scene for the lane kernel.
 #[derive(Debug, Clone)]
@@ -60,7 +63,8 @@ pub struct FrictionConsts<T, const N: usize> {
     h: T,
     half_h: T,
     /// Decisions closer than these to their boundary are not taken here:
-    /// |a| (take-off), relative to the velocity scale; |f| against μλ
+    /// |a| (take-off) and a contact's final sliding speed against the stick
+    /// threshold, relative to the velocity scale; |f| against μλ
     /// (stick), relative; the sliding speed against friction.md's stick
     /// threshold, relative to the velocity scale; the certificate's
     /// values, relative to their terms' magnitude.
@@ -668,7 +672,7 @@ fn root_judge<T: Real, const N: usize>(
 /// one valid slide root; with μ = 0, `max(−a, 0)/W_nn · n`), its effect on
 /// v and ω, the largest move, and the stick and unsure bits.
 #[inline(always)]
-fn finish<T: Real, const N: usize, const ROUGH: bool>(
+fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
     c: &Consts<T, N>,
     i: usize,
     fr: &Frame<T, N>,
@@ -678,6 +682,8 @@ fn finish<T: Real, const N: usize, const ROUGH: bool>(
     let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
     let mu = fc.mu[i];
     let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
+    let own_moved = 1u32 << (MOVED_SHIFT + i as u32);
+    let others_moved = (((1u32 << N) - 1) << MOVED_SHIFT) & !own_moved;
     let Sweep {
         p,
         dv,
@@ -731,7 +737,17 @@ fn finish<T: Real, const N: usize, const ROUGH: bool>(
             p[i][m][s] = new[m];
         }
         moved[s] = moved[s].max(dot3(dp, dp).sqrt());
-        bits[s] = (bits[s] & !stick_bit) | bit(stuck, stick_bit) | bit(!sure, UNSURE);
+        // An active contact's visit moves the others (in exact arithmetic
+        // its increment is zero only at the limit), as does any change.
+        let nonzero =
+            (dp[0] != T::ZERO) | (dp[1] != T::ZERO) | (dp[2] != T::ZERO) | (new[0] != T::ZERO);
+        // A visit that saw the other contacts' impulses (COUPLED) starts
+        // this contact afresh; paper's visits see none of them.
+        let fresh = if COUPLED { own_moved } else { 0 };
+        bits[s] = (bits[s] & !(stick_bit | fresh))
+            | bit(stuck, stick_bit)
+            | bit(!sure, UNSURE)
+            | bit(nonzero, others_moved);
     }
 }
 
@@ -747,7 +763,7 @@ fn visit<T: Real, const N: usize, const COUPLED: bool>(
     let fc = &c.fr;
     setup::<T, N, COUPLED>(c, i, fr, sw);
     if fc.mu[i] == T::ZERO {
-        finish::<T, N, false>(c, i, fr, sw);
+        finish::<T, N, COUPLED, false>(c, i, fr, sw);
         return;
     }
     let k = &mut sw.solve;
@@ -768,7 +784,7 @@ fn visit<T: Real, const N: usize, const COUPLED: bool>(
         }
         root_judge(fc, fc.mu[i], i, n, fr, k);
     }
-    finish::<T, N, true>(c, i, fr, sw);
+    finish::<T, N, COUPLED, true>(c, i, fr, sw);
 }
 
 /// Every contact visited once, in scene order.
@@ -815,18 +831,30 @@ pub fn friction_impulses<T: Real, const N: usize>(
                 sweep::<T, N, true>(c, fr, sw);
             }
         }
+        // Stronge's Darboux–Keller integration runs per sample in the f64
+        // reference.
+        Law::Stronge => sw.bits = [UNSURE; BLOCK],
         // One contact: a single visit is the limit (a second moves nothing).
-        Law::Newton | Law::Stronge if N == 1 => sweep::<T, N, true>(c, fr, sw),
-        Law::Newton | Law::Stronge => {
+        Law::Newton if N == 1 => sweep::<T, N, true>(c, fr, sw),
+        // Several contacts: sweeps until no impulse moves by more than the
+        // tolerance (friction.md's stopping rule). The limit is what the
+        // certificate must vouch for: a lane is kept when every visit of its
+        // last sweep was certain and that sweep moved nothing, so that its
+        // impulses satisfy every contact's law; earlier visits only lead
+        // there.
+        Law::Newton => {
             let mass = c.mass;
             for _ in 0..c.fr.gs_max {
                 sw.moved = [T::ZERO; BLOCK];
+                for b in sw.bits.iter_mut() {
+                    *b &= !UNSURE;
+                }
                 sweep::<T, N, true>(c, fr, sw);
                 let mut left = 0u32;
                 for s in 0..BLOCK {
                     let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];
                     unconverged[s] = still;
-                    left |= bit(still & (sw.bits[s] & UNSURE == 0), 1);
+                    left |= still as u32;
                 }
                 if left == 0 {
                     break;
@@ -835,19 +863,23 @@ pub fn friction_impulses<T: Real, const N: usize>(
         }
         Law::Poisson => unreachable!("poisson with friction is refused by the scene"),
     }
-    friction_post(c, x, geo, fr, sw, &unconverged, out);
+    let limit = matches!(law, Law::Newton);
+    friction_post(c, x, geo, fr, sw, limit, &unconverged, out);
 }
 
 /// Post-impact velocities, normal velocities, energy, tangential impulses
-/// and sliding speeds of a frictional block; lanes the solve could not
-/// vouch for are flagged [`RECOMPUTE`].
+/// and sliding speeds of a frictional block (`limit`: the impulses are
+/// Newton's converged limit); lanes the solve could not vouch for are
+/// flagged [`RECOMPUTE`].
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn friction_post<T: Real, const N: usize>(
     c: &Consts<T, N>,
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
     fr: &Frame<T, N>,
     sw: &Sweep<T, N>,
+    limit: bool,
     unconverged: &[bool; BLOCK],
     out: &mut LawOut<T, N>,
 ) {
@@ -865,6 +897,7 @@ fn friction_post<T: Real, const N: usize>(
         let mut status = geo.status[s];
         let mut work = T::ZERO;
         let mut work_abs = T::ZERO;
+        let mut unsure_stick = false;
         for i in 0..N {
             let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
             let mut after = [T::ZERO; 3];
@@ -881,12 +914,19 @@ fn friction_post<T: Real, const N: usize>(
                 work_abs = p.abs().mul_add(before.abs() + after[d].abs(), work_abs);
             }
             let lambda = sw.p[i][0][s];
+            // friction.md's sticking: |c⁺_t| ≤ 1e-9 × the velocity scale.
+            // A contact whose last visit stuck has c⁺_t = 0 if nothing moved
+            // since, or at Newton's limit (whose stopping rule leaves far
+            // less than the threshold); otherwise the computed speed
+            // decides, unless it is within rounding of the threshold.
             let stuck = sw.bits[s] & (1 << (STICK_SHIFT + i as u32)) != 0;
-            let sliding = select(
-                stuck,
-                T::ZERO,
-                after[1].mul_add(after[1], after[2] * after[2]).sqrt(),
-            );
+            let since = sw.bits[s] & (1 << (MOVED_SHIFT + i as u32)) != 0;
+            let speed = after[1].mul_add(after[1], after[2] * after[2]).sqrt();
+            let rounding = c.fr.take_off_band * fr.vscale[s];
+            let at_rest = stuck & (limit | !since);
+            let sliding = select(at_rest, T::ZERO, speed);
+            let active = lambda > T::ZERO;
+            unsure_stick |= active & !at_rest & ((speed - stuck_at).abs() <= rounding);
             out.lambda[i][s] = lambda;
             out.vn_after[i][s] = after[0];
             out.tangential[i][s] = sw.p[i][1][s]
@@ -895,7 +935,7 @@ fn friction_post<T: Real, const N: usize>(
             out.sliding[i][s] = sliding;
             status |= ((lambda > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
             status |= bit(
-                (lambda > T::ZERO) & (stuck | (sliding <= stuck_at)),
+                active & (at_rest | (speed <= stuck_at)),
                 1 << (STICKING_SHIFT + i as u32),
             );
         }
@@ -928,7 +968,7 @@ fn friction_post<T: Real, const N: usize>(
         out.t_after[s] = t1;
         status |= bit(gained, ENERGY_GAIN)
             | bit(
-                unsure | unconverged[s] | (sw.bits[s] & UNSURE != 0),
+                unsure | unsure_stick | unconverged[s] | (sw.bits[s] & UNSURE != 0),
                 RECOMPUTE,
             );
         out.status[s] = status;
