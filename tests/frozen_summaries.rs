@@ -1,20 +1,25 @@
 //! Value stability of seeded runs: S1, S2 and S3 in f32 and f64 under the
 //! four laws, with a fixed seed, give exactly the counts and the bits of the
-//! moments (n, mean, M2, min, max) in `tests/frozen/summaries.txt`.
+//! moments (n, mean, M2, min, max) in `tests/frozen/summaries.txt`; the
+//! frictional floor (μ = 0.5) and S3 with μ = 0.3 on every wall under the
+//! frictional laws, with their friction statistics, those in
+//! `tests/frozen/friction-summaries.txt`.
 //!
 //! A change that moves any seeded result fails here. Such a change needs a
 //! version bump and a CHANGELOG entry; then regenerate the file with
 //! `IMPACTMC_FREEZE=1 cargo test --release --test frozen_summaries` and
-//! review its diff.
+//! review their diffs.
 
 mod support;
 
-use impactmc::config::{load_scene, Overrides};
+use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::{run, RunOptions};
+use impactmc::stats::accumulators::LawAcc;
 use impactmc::stats::Moments;
-use support::repo;
+use support::{repo, tmpdir};
 
 const FROZEN: &str = "tests/frozen/summaries.txt";
+const FROZEN_FRICTION: &str = "tests/frozen/friction-summaries.txt";
 
 fn moments(name: &str, m: &Moments) -> String {
     let (n, mean, m2, min, max) = m.state();
@@ -25,6 +30,60 @@ fn moments(name: &str, m: &Moments) -> String {
         min.to_bits(),
         max.to_bits()
     )
+}
+
+/// One law's counts and moments, with its friction statistics if any.
+fn law_line(key: &str, a: &LawAcc) -> String {
+    let mut l = format!(
+        "{key}: samples={} impacts={} energy_gain={} degenerate={} jammed={} unsolved={} recomputed={} penetrating={} active_sets={:?}",
+        a.samples,
+        a.impacts,
+        a.energy_gain,
+        a.degenerate,
+        a.jammed,
+        a.unsolved,
+        a.recomputed,
+        a.penetrating,
+        a.active_sets
+    );
+    l += &moments("energy_ratio", &a.energy_ratio.moments);
+    l += &moments("omega_after_norm", &a.omega_after_norm.moments);
+    l += &moments("velocity_after_norm", &a.velocity_after_norm.moments);
+    for (i, st) in a.impulse.iter().enumerate() {
+        l += &moments(&format!("impulse{i}"), &st.moments);
+    }
+    for (i, st) in a.rebound.iter().enumerate() {
+        l += &moments(&format!("rebound{i}"), &st.moments);
+    }
+    if let Some(f) = &a.friction {
+        l += &format!(
+            " ambiguous={} unconverged={} active={:?} sticking={:?}",
+            f.ambiguous, f.unconverged, f.active, f.sticking
+        );
+        for (i, st) in f.tangential_impulse.iter().enumerate() {
+            l += &moments(&format!("tangential{i}"), &st.moments);
+        }
+        for (i, st) in f.sliding_speed.iter().enumerate() {
+            l += &moments(&format!("sliding{i}"), &st.moments);
+        }
+    }
+    l
+}
+
+/// Compares `got` with a frozen file, or rewrites it under
+/// `IMPACTMC_FREEZE`.
+fn check_frozen(file: &str, got: &[String]) {
+    let path = repo(file);
+    if std::env::var_os("IMPACTMC_FREEZE").is_some() {
+        std::fs::write(&path, got.join("\n") + "\n").expect("write the frozen file");
+        return;
+    }
+    let text = std::fs::read_to_string(&path).expect(file);
+    let want: Vec<&str> = text.lines().collect();
+    assert_eq!(want.len(), got.len(), "{file}: line count");
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g, w, "a seeded result moved (see this file's header)");
+    }
 }
 
 /// One line per (scene, precision, law).
@@ -57,29 +116,7 @@ fn fingerprint() -> Vec<String> {
             )
             .expect("run");
             for (law, a) in s.laws().iter().zip(&r.acc.laws) {
-                let mut l = format!(
-                    "{scene} {precision} {}: samples={} impacts={} energy_gain={} degenerate={} jammed={} unsolved={} recomputed={} penetrating={} active_sets={:?}",
-                    law.name(),
-                    a.samples,
-                    a.impacts,
-                    a.energy_gain,
-                    a.degenerate,
-                    a.jammed,
-                    a.unsolved,
-                    a.recomputed,
-                    a.penetrating,
-                    a.active_sets
-                );
-                l += &moments("energy_ratio", &a.energy_ratio.moments);
-                l += &moments("omega_after_norm", &a.omega_after_norm.moments);
-                l += &moments("velocity_after_norm", &a.velocity_after_norm.moments);
-                for (i, st) in a.impulse.iter().enumerate() {
-                    l += &moments(&format!("impulse{i}"), &st.moments);
-                }
-                for (i, st) in a.rebound.iter().enumerate() {
-                    l += &moments(&format!("rebound{i}"), &st.moments);
-                }
-                lines.push(l);
+                lines.push(law_line(&format!("{scene} {precision} {}", law.name()), a));
             }
         }
     }
@@ -90,15 +127,70 @@ fn fingerprint() -> Vec<String> {
 fn seeded_summaries_are_frozen() {
     let got = fingerprint();
     assert_eq!(got.len(), 3 * 2 * 4);
-    let path = repo(FROZEN);
-    if std::env::var_os("IMPACTMC_FREEZE").is_some() {
-        std::fs::write(&path, got.join("\n") + "\n").expect("write the frozen file");
-        return;
+    check_frozen(FROZEN, &got);
+}
+
+/// A shipped scene with friction μ on every plane that has none.
+fn rough(name: &str, mu: f64, precision: &str, samples: u64, laws: &[&str]) -> Scene {
+    let text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
+    let text: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("restitution =") && !text.contains("friction =") {
+                format!("{l}\nfriction = {mu}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let p = tmpdir(&format!("frozen-friction-{name}-{precision}")).join("scene.toml");
+    std::fs::write(&p, text.join("\n")).unwrap();
+    load_scene(
+        &p,
+        &Overrides {
+            samples: Some(samples),
+            seed: Some(2026),
+            precision: Some(precision.parse().expect("f32 or f64")),
+            laws: Some(laws.iter().map(|l| l.to_string()).collect()),
+            ..Default::default()
+        },
+    )
+    .expect("scene")
+}
+
+#[test]
+fn seeded_friction_summaries_are_frozen() {
+    let mut got = Vec::new();
+    for precision in ["f32", "f64"] {
+        for (name, samples, laws) in [
+            (
+                "floor_friction",
+                100_000,
+                &["newton", "paper", "pgs8", "stronge"][..],
+            ),
+            ("corner3", 5_000, &["newton", "paper", "pgs8"][..]),
+        ] {
+            // Stronge runs on the reference in either precision: once.
+            let laws: Vec<&str> = laws
+                .iter()
+                .copied()
+                .filter(|&l| l != "stronge" || precision == "f64")
+                .collect();
+            let s = rough(name, 0.3, precision, samples, &laws);
+            assert!(s.effects().friction);
+            let r = run(
+                &s,
+                &RunOptions {
+                    threads: 2,
+                    ..Default::default()
+                },
+            )
+            .expect("run");
+            for (law, a) in s.laws().iter().zip(&r.acc.laws) {
+                got.push(law_line(&format!("{name} {precision} {}", law.name()), a));
+            }
+        }
     }
-    let text = std::fs::read_to_string(&path).expect("tests/frozen/summaries.txt");
-    let want: Vec<&str> = text.lines().collect();
-    assert_eq!(want.len(), got.len(), "{FROZEN}: line count");
-    for (g, w) in got.iter().zip(&want) {
-        assert_eq!(g, w, "a seeded result moved (see this file's header)");
-    }
+    assert_eq!(got.len(), 2 * (3 + 3) + 1);
+    check_frozen(FROZEN_FRICTION, &got);
 }
