@@ -99,8 +99,8 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     // Orientations feed the rotational terms and the per-sample rows only,
     // and the kernel reads only the rows of A its planes need; per-sample
     // rows and planes outside the placement read the whole matrix.
-    // The f64 reference that solves a frictional scene reads the whole
-    // orientation (a sphere's ω turns by friction too).
+    // The frictional kernel's contact frames read the whole orientation
+    // (a sphere's ω turns by friction too).
     let friction = scene.effects().friction;
     let whole = sink.is_some() || scene.planes().len() > N || friction;
     let sampler = Sampler::new(scene)
