@@ -9,11 +9,11 @@
 mod support;
 
 use glam::{DMat3, DVec3};
-use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::config::{Overrides, Scene};
 use impactmc::engine::evaluate_samples;
 use impactmc::kernel::{ENERGY_GAIN, RECOMPUTED, STICKING_SHIFT};
 use impactmc::physics::{solve_impact, Law, Pose, State};
-use support::{repo, tmpdir};
+use support::rough_scene;
 
 const LAWS: [Law; 4] = [
     Law::Newton,
@@ -25,25 +25,10 @@ const LAWS: [Law; 4] = [
 /// A shipped scene at `precision`, with friction `mu` on every plane that
 /// has none.
 fn rough(name: &str, mu: f64, precision: &str) -> Scene {
-    let text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
-    let text = if text.contains("friction =") {
-        text
-    } else {
-        text.lines()
-            .map(|l| {
-                if l.starts_with("restitution =") {
-                    format!("{l}\nfriction = {mu}")
-                } else {
-                    l.to_string()
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("\n")
-    };
-    let p = tmpdir(&format!("friction-kernel-{name}-{precision}")).join("scene.toml");
-    std::fs::write(&p, text).unwrap();
-    let s = load_scene(
-        &p,
+    rough_scene(
+        name,
+        mu,
+        &format!("friction-kernel-{name}-{precision}"),
         &Overrides {
             precision: Some(precision.parse().unwrap()),
             // Poisson is not defined with friction; the laws are chosen per
@@ -52,9 +37,6 @@ fn rough(name: &str, mu: f64, precision: &str) -> Scene {
             ..Overrides::default()
         },
     )
-    .unwrap();
-    assert!(s.effects().friction, "{name} has friction");
-    s
 }
 
 /// What the kernel got wrong against the reference over `count` samples.

@@ -16,7 +16,7 @@ use impactmc::config::{load_scene, Overrides, Scene};
 use impactmc::engine::{run, RunOptions};
 use impactmc::stats::accumulators::LawAcc;
 use impactmc::stats::Moments;
-use support::{repo, tmpdir};
+use support::{repo, rough_scene};
 
 const FROZEN: &str = "tests/frozen/summaries.txt";
 const FROZEN_FRICTION: &str = "tests/frozen/friction-summaries.txt";
@@ -130,23 +130,12 @@ fn seeded_summaries_are_frozen() {
     check_frozen(FROZEN, &got);
 }
 
-/// A shipped scene with friction μ on every plane that has none.
+/// A shipped scene with friction μ on every plane that has none, seeded.
 fn rough(name: &str, mu: f64, precision: &str, samples: u64, laws: &[&str]) -> Scene {
-    let text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
-    let text: Vec<String> = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("restitution =") && !text.contains("friction =") {
-                format!("{l}\nfriction = {mu}")
-            } else {
-                l.to_string()
-            }
-        })
-        .collect();
-    let p = tmpdir(&format!("frozen-friction-{name}-{precision}")).join("scene.toml");
-    std::fs::write(&p, text.join("\n")).unwrap();
-    load_scene(
-        &p,
+    rough_scene(
+        name,
+        mu,
+        &format!("frozen-friction-{name}-{precision}"),
         &Overrides {
             samples: Some(samples),
             seed: Some(2026),
@@ -155,7 +144,6 @@ fn rough(name: &str, mu: f64, precision: &str, samples: u64, laws: &[&str]) -> S
             ..Default::default()
         },
     )
-    .expect("scene")
 }
 
 #[test]
@@ -177,7 +165,6 @@ fn seeded_friction_summaries_are_frozen() {
                 .filter(|&l| l != "stronge" || precision == "f64")
                 .collect();
             let s = rough(name, 0.3, precision, samples, &laws);
-            assert!(s.effects().friction);
             let r = run(
                 &s,
                 &RunOptions {

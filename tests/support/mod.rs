@@ -44,6 +44,32 @@ pub fn shipped_scene(name: &str, precision: &str) -> impactmc::config::Scene {
     .expect("shipped scene")
 }
 
+/// A shipped scene with friction μ on every plane that has none, loaded
+/// with `overrides` from a scratch file tagged `tag`.
+pub fn rough_scene(
+    name: &str,
+    mu: f64,
+    tag: &str,
+    overrides: &impactmc::config::Overrides,
+) -> impactmc::config::Scene {
+    let text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
+    let rough: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("restitution =") && !text.contains("friction =") {
+                format!("{l}\nfriction = {mu}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let p = tmpdir(tag).join("scene.toml");
+    std::fs::write(&p, rough.join("\n")).unwrap();
+    let s = impactmc::config::load_scene(&p, overrides).expect("scene");
+    assert!(s.effects().friction, "{name} has friction");
+    s
+}
+
 /// Whether a test that needs something outside Rust (`what`, e.g. a Slurm
 /// cluster) can run: `true` when `available`; otherwise it is skipped with a
 /// message saying how to get it (`false`), unless the environment variable
