@@ -12,20 +12,25 @@
 //!
 //! The slide angle θ of `ŝ = cos θ t₁ + sin θ t₂` solves
 //! `F(θ) = ŝ⊥·[D(θ) c_t − a (w_t − μ W_tt ŝ)] = 0` (friction.md, case 3), a
-//! trigonometric polynomial of degree 2 with closed-form coefficients.
-//! Its roots are located on a fixed grid of 16 intervals: each interval is
-//! certified root-free, or to hold exactly one root (F monotone), from F
-//! and F′ at its ends and a bound on F″ (concave quadratic lower bounds,
-//! which are smallest at an end of where they are used). Whether a root is
-//! valid (`D > 0` and its sliding speed s above the stick threshold) is
-//! certified the same way over its whole interval. The one valid root is
-//! then refined by a fixed count of safeguarded Newton steps in its
-//! bracket. A lane is solved here only when the certificate shows exactly
-//! one valid case (stick, or one slide root) clear of every boundary by a
-//! margin above the lane type's rounding; otherwise (several valid cases:
-//! `ambiguous`; none: `unsolved`; anything within the margin of a
-//! decision; Gauss–Seidel not converged) it is flagged [`RECOMPUTE`] and
-//! solved by the f64 reference.
+//! trigonometric polynomial of degree 2 with closed-form coefficients
+//! ([`Slide`]), so it has at most four roots. They are located on a fixed
+//! grid of 32 intervals: each interval must be certified root-free, or to
+//! hold exactly one root (F monotone there, or convex or concave with a
+//! sign change), from F and its derivatives at the interval's ends and a
+//! bound on the next derivative ([`positive_on`]). Each root is refined by
+//! a fixed count of safeguarded Newton steps in its interval and judged
+//! where it is: valid when D > 0 and its sliding speed N/D exceeds the stick
+//! threshold, both clear of the margins. A lane is solved here only when
+//! exactly one valid case remains (stick, or one slide root) and every
+//! decision on the way is clear of its boundary by a margin above the lane
+//! type's rounding; otherwise (several valid cases: `ambiguous`; none:
+//! `unsolved`; a decision within its margin; Gauss–Seidel not converged)
+//! it is flagged [`RECOMPUTE`] and solved by the f64 reference.
+//!
+//! Each step is a pass over the lanes of a block with its state in
+//! [`Solve`], so that every loop vectorises; the passes run inside the
+//! multiversioned entry points of `engine/batch.rs`, whose reference
+//! arguments tell the compiler the arrays do not overlap.
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
@@ -63,11 +68,12 @@ pub struct FrictionConsts<T, const N: usize> {
     h: T,
     half_h: T,
     /// Decisions closer than these to their boundary are not taken here:
-    /// |a| (take-off) and a contact's final sliding speed against the stick
-    /// threshold, relative to the velocity scale; |f| against μλ
-    /// (stick), relative; the sliding speed against friction.md's stick
-    /// threshold, relative to the velocity scale; the certificate's
-    /// values, relative to their terms' magnitude.
+    /// `take_off_band`, |a| against 0 and a contact's final sliding speed
+    /// against friction.md's stick threshold, relative to the velocity
+    /// scale; `stick_band`, |f| against μλ in the stick test, relative;
+    /// `slide_hi` and `slide_lo`, a slide root's speed above and below the
+    /// threshold, relative to the velocity scale; `round`, the
+    /// certificate's values, relative to their terms' magnitude.
     take_off_band: T,
     stick_band: T,
     slide_hi: T,
@@ -362,9 +368,8 @@ fn positive_on<T: Real, const N: usize>(
 /// stick case, the grid intervals, the refinement of each root, the
 /// choice. Cache-line aligned; one per worker.
 #[repr(C, align(64))]
-pub struct Solve<T> {
-    /// The free contact-point velocity (frame coordinates) and `a = c_n + b`.
-    cf: [[T; BLOCK]; 3],
+struct Solve<T> {
+    /// `a = c_n + b` of the free contact-point velocity.
     a: [T; BLOCK],
     /// The stick case's impulse, and whether it is valid, or clearly not.
     stick: [[T; BLOCK]; 3],
@@ -401,7 +406,6 @@ impl<T: Real> Solve<T> {
     fn empty() -> Self {
         let z = [T::ZERO; BLOCK];
         Self {
-            cf: [z; 3],
             a: z,
             stick: [z; 3],
             stick_ok: [false; BLOCK],
@@ -509,7 +513,6 @@ fn setup<T: Real, const N: usize, const COUPLED: bool>(
         k.m_d[s] = fc.round * (wnn + ld);
         let left = sl.at(fc.grid[0]);
         for m in 0..3 {
-            k.cf[m][s] = cf[m];
             k.stick[m][s] = stick[m];
         }
         for m in 0..5 {
