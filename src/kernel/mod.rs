@@ -16,7 +16,9 @@
 //!   since every law is continuous in v_n);
 //! - f32 energy changes within rounding of the `energy_gain` threshold;
 //! - an LCP without an acceptable candidate (jammed, or rounding);
-//! - a plane outside the placement that touches or is penetrated.
+//! - a plane outside the placement that touches or is penetrated;
+//! - with friction, a single-contact solve its certificate cannot vouch
+//!   for, or Gauss–Seidel not converged (see `friction.rs`).
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
