@@ -709,7 +709,10 @@ fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
             let count = k.count[s];
             let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
             let sure_a = a.abs() > fc.take_off_band * fr.vscale[s];
-            let sure = !approaching | (sure_a & k.grid_ok[s] & k.roots_ok[s] & one_case);
+            // Take-off decides nothing within rounding of a = 0 on either
+            // side: just below it, a stick impulse need not be small
+            // (Painlevé's impact without collision).
+            let sure = sure_a & (!approaching | (k.grid_ok[s] & k.roots_ok[s] & one_case));
             let new: [T; 3] = std::array::from_fn(|m| {
                 select(
                     approaching,
