@@ -70,6 +70,23 @@ fn law_line(key: &str, a: &LawAcc) -> String {
     l
 }
 
+/// A scene run on two threads: one [`law_line`] per law, keyed `KEY LAW`.
+fn run_lines(key: &str, s: &Scene) -> Vec<String> {
+    let r = run(
+        s,
+        &RunOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .expect("run");
+    s.laws()
+        .iter()
+        .zip(&r.acc.laws)
+        .map(|(law, a)| law_line(&format!("{key} {}", law.name()), a))
+        .collect()
+}
+
 /// Compares `got` with a frozen file, or rewrites it under
 /// `IMPACTMC_FREEZE`.
 fn check_frozen(file: &str, got: &[String]) {
@@ -107,17 +124,7 @@ fn fingerprint() -> Vec<String> {
             )
             .expect("shipped scene");
             // Three batches, so the merge tree is exercised too.
-            let r = run(
-                &s,
-                &RunOptions {
-                    threads: 2,
-                    ..Default::default()
-                },
-            )
-            .expect("run");
-            for (law, a) in s.laws().iter().zip(&r.acc.laws) {
-                lines.push(law_line(&format!("{scene} {precision} {}", law.name()), a));
-            }
+            lines.extend(run_lines(&format!("{scene} {precision}"), &s));
         }
     }
     lines
@@ -165,17 +172,7 @@ fn seeded_friction_summaries_are_frozen() {
                 .filter(|&l| l != "stronge" || precision == "f64")
                 .collect();
             let s = rough(name, 0.3, precision, samples, &laws);
-            let r = run(
-                &s,
-                &RunOptions {
-                    threads: 2,
-                    ..Default::default()
-                },
-            )
-            .expect("run");
-            for (law, a) in s.laws().iter().zip(&r.acc.laws) {
-                got.push(law_line(&format!("{name} {precision} {}", law.name()), a));
-            }
+            got.extend(run_lines(&format!("{name} {precision}"), &s));
         }
     }
     assert_eq!(got.len(), 2 * (3 + 3) + 1);

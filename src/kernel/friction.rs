@@ -889,9 +889,6 @@ fn friction_post<T: Real, const N: usize>(
     unconverged: &[bool; BLOCK],
     out: &mut LawOut<T, N>,
 ) {
-    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
-    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
-    let ambiguous = T::from_f64(64.0) * T::EPSILON;
     let stick_speed = T::from_f64(1e-9);
     for s in 0..BLOCK {
         let dv = [sw.dv[0][s], sw.dv[1][s], sw.dv[2][s]];
@@ -945,28 +942,9 @@ fn friction_post<T: Real, const N: usize>(
                 1 << (STICKING_SHIFT + i as u32),
             );
         }
-        let t0 = geo.t_before[s];
-        let direct = T::HALF
-            * c.mass.mul_add(
-                dot3(v, v),
-                dot3(
-                    [
-                        c.inertia[0] * w[0],
-                        c.inertia[1] * w[1],
-                        c.inertia[2] * w[2],
-                    ],
-                    w,
-                ),
-            );
         // ΔT = ½ Σ P_i·(c⁻_i + c⁺_i), exact for any impulses (friction.md).
-        let dt = T::HALF * work;
-        let t1 = if f32_lanes { t0 + dt } else { direct };
-        let gained = if f32_lanes {
-            dt > gain * t0
-        } else {
-            t1 > t0 + gain * t0
-        };
-        let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
+        let (t1, gained, unsure) =
+            super::impulses::energy_after(c, geo.t_before[s], v, w, work, work_abs);
         for k in 0..3 {
             out.v_after[k][s] = v[k];
             out.w_after[k][s] = w[k];

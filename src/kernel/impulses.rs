@@ -135,9 +135,6 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
     geo: &Geometry<T, N>,
     out: &mut LawOut<T, N>,
 ) {
-    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
-    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
-    let ambiguous = T::from_f64(64.0) * T::EPSILON;
     for s in 0..BLOCK {
         let lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
         let mut dv = [T::ZERO; 3];
@@ -171,31 +168,7 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
             work += lam[i] * (geo.vn[i][s] + vn);
             work_abs += lam[i] * (geo.vn[i][s].abs() + vn.abs());
         }
-        let t0 = geo.t_before[s];
-        let direct = T::HALF
-            * c.mass.mul_add(
-                dot3(v, v),
-                dot3(
-                    [
-                        c.inertia[0] * w[0],
-                        c.inertia[1] * w[1],
-                        c.inertia[2] * w[2],
-                    ],
-                    w,
-                ),
-            );
-        // f32: T⁺ = T⁻ + ΔT with ΔT = ½Σλ(v_n⁻ + v_n⁺) exactly (physics.md),
-        // accurate relative to ΔT rather than to T.
-        let dt = T::HALF * work;
-        let t1 = if f32_lanes { t0 + dt } else { direct };
-        let gained = if f32_lanes {
-            dt > gain * t0
-        } else {
-            t1 > t0 + gain * t0
-        };
-        // Rounding bound of dt: a few ε of the sum of |terms|. Only when
-        // the threshold lies within it is the f32 flag in doubt.
-        let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
+        let (t1, gained, unsure) = energy_after(c, geo.t_before[s], v, w, work, work_abs);
         for k in 0..3 {
             out.v_after[k][s] = v[k];
             out.w_after[k][s] = w[k];
@@ -203,4 +176,46 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
         out.t_after[s] = t1;
         out.status[s] |= active | bit(gained, ENERGY_GAIN) | bit(unsure, RECOMPUTE);
     }
+}
+
+/// T⁺ of a lane, whether it gained energy (`energy_gain`), and whether that
+/// flag is in doubt, from v⁺, ω⁺, T⁻ and the work `Σ P·(c⁻ + c⁺)` of the
+/// impulses (with `work_abs`, the same sum of absolute values). f32: T⁺ =
+/// T⁻ + ½·work, exact in exact arithmetic (physics.md, friction.md), so
+/// accurate relative to ΔT rather than to T; the flag is in doubt when the
+/// threshold lies within the rounding bound of ΔT (a few ε of `work_abs`).
+/// f64: T⁺ from v⁺ and ω⁺ directly.
+#[inline(always)]
+pub(crate) fn energy_after<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    t0: T,
+    v: [T; 3],
+    w: [T; 3],
+    work: T,
+    work_abs: T,
+) -> (T, bool, bool) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    let gain = T::from_f64(crate::physics::ENERGY_GAIN_RELATIVE);
+    let ambiguous = T::from_f64(64.0) * T::EPSILON;
+    let direct = T::HALF
+        * c.mass.mul_add(
+            dot3(v, v),
+            dot3(
+                [
+                    c.inertia[0] * w[0],
+                    c.inertia[1] * w[1],
+                    c.inertia[2] * w[2],
+                ],
+                w,
+            ),
+        );
+    let dt = T::HALF * work;
+    let t1 = if f32_lanes { t0 + dt } else { direct };
+    let gained = if f32_lanes {
+        dt > gain * t0
+    } else {
+        t1 > t0 + gain * t0
+    };
+    let unsure = f32_lanes && (dt - gain * t0).abs() <= ambiguous * (work_abs + gain * t0);
+    (t1, gained, unsure)
 }
