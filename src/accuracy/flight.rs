@@ -93,6 +93,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             ns_per_sample: ns,
             vs_compliant: Errors::NONE,
             vs_newton: Errors::NONE,
+            vs_stronge: None,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -112,12 +113,14 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             ns_per_sample: ns,
             vs_compliant: Errors::NONE,
             vs_newton: Errors::NONE,
+            vs_stronge: None,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
         });
     }
     Ladder {
+        friction: false,
         scene: scene.name().to_string(),
         law_for_counts: law.name(),
         knobs,

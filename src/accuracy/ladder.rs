@@ -29,21 +29,61 @@ fn variant(
     )
 }
 
-/// Nanoseconds per sample of an end-to-end run on one thread.
-fn timed_run(scene: &Scene) -> f64 {
-    let r = run(
-        scene,
-        &RunOptions {
-            threads: 1,
-            ..Default::default()
-        },
-    )
-    .expect("a one-thread pool");
-    r.wall_seconds * 1e9 / scene.samples() as f64
+/// Nanoseconds per sample of an end-to-end run on one thread, of
+/// `accuracy.timing_samples` samples, or of fewer when that would take more
+/// than about [`TIMING_BUDGET_S`] (a probe of 1 000 samples decides).
+fn timed_run(
+    path: &Path,
+    law: &str,
+    precision: Precision,
+    knobs: &Knobs,
+) -> Result<f64, SceneError> {
+    let one = |samples: u64| -> Result<f64, SceneError> {
+        let scene = variant(path, vec![law.to_string()], precision, samples)?;
+        let r = run(
+            &scene,
+            &RunOptions {
+                threads: 1,
+                ..Default::default()
+            },
+        )
+        .expect("a one-thread pool");
+        Ok(r.wall_seconds * 1e9 / samples as f64)
+    };
+    let probe = one(1000)?;
+    let affordable = (TIMING_BUDGET_S * 1e9 / probe) as u64;
+    let samples = knobs.timing_samples.min(affordable.max(1000));
+    if samples <= 1000 {
+        return Ok(probe);
+    }
+    one(samples)
+}
+
+/// Wall-time budget of one rung's timing run (s).
+const TIMING_BUDGET_S: f64 = 5.0;
+
+fn rung(family: &str, name: &str, precision: &str, ns: f64) -> Rung {
+    Rung {
+        family: family.into(),
+        rung: name.into(),
+        precision: precision.into(),
+        ns_per_sample: ns,
+        vs_compliant: Errors::NONE,
+        vs_newton: Errors::NONE,
+        vs_stronge: None,
+        point_error: None,
+        vs_flight_reference: None,
+        time_error: None,
+    }
 }
 
 /// Runs the ladder on the scene at `path` (its `[accuracy]` and
 /// `[material]` knobs). `progress` receives one line per rung.
+///
+/// With friction on a touching plane the rigid rungs are `paper`, `pgsN`
+/// and `newton` (`poisson` is not defined with friction), the compliant
+/// rungs add regularised Coulomb, and with one touching plane `stronge`
+/// joins as a rung and as a second rigid reference (`vs_stronge`).
 pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
     let file = path.display().to_string();
     let base = load_scene(path, &Overrides::default())?;
@@ -52,98 +92,87 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         return Ok(flight_ladder(&base, knobs, progress));
     }
     let n = knobs.samples;
-    let newton64 = variant(
-        path,
-        vec!["newton".into()],
-        Precision::F64,
-        knobs.timing_samples,
-    )?;
+    let touching = base.touching_planes();
+    let rough = touching.iter().any(|p| p.friction() > 0.0);
+    let with_stronge = rough && touching.len() == 1;
+    let newton64 = variant(path, vec!["newton".into()], Precision::F64, 1)?;
     let reference_outcomes = evaluate_samples(&newton64, Law::Newton, 0, n);
     let inputs: Vec<(Pose, State)> = reference_outcomes
         .iter()
         .map(|o| sample_input(&newton64, o))
         .collect();
     let newton_posts: Vec<Post> = reference_outcomes.iter().map(post_of).collect();
+    let stronge_posts: Option<Vec<Post>> = if with_stronge {
+        let scene = variant(path, vec!["stronge".into()], Precision::F64, 1)?;
+        Some(
+            evaluate_samples(&scene, Law::Stronge, 0, n)
+                .iter()
+                .map(post_of)
+                .collect(),
+        )
+    } else {
+        None
+    };
     progress(&format!(
-        "reference: compliant, {} RK4 steps per contact, E* = {:e} Pa, {n} samples",
-        knobs.reference_steps, knobs.effective_modulus
-    ));
-    let (reference, _) = compliant_posts(
-        &newton64,
-        &inputs,
-        knobs.effective_modulus,
+        "reference: compliant, {} RK4 steps per contact, E* = {:e} Pa{}, {n} samples",
         knobs.reference_steps,
-    );
+        knobs.effective_modulus,
+        if rough {
+            format!(
+                ", regularised Coulomb ε = {:e} (|v| + L|ω|)",
+                knobs.friction_regularisation
+            )
+        } else {
+            String::new()
+        }
+    ));
+    let (reference, _) =
+        compliant_posts(&newton64, &inputs, knobs.compliant(knobs.reference_steps));
+    let judged = |mut r: Rung, posts: &[Post]| -> Rung {
+        r.vs_compliant = errors(posts, &reference);
+        r.vs_newton = errors(posts, &newton_posts);
+        r.vs_stronge = stronge_posts.as_ref().map(|s| errors(posts, s));
+        r
+    };
     let mut rungs = Vec::new();
 
     let mut laws: Vec<String> = vec!["paper".into()];
     laws.extend(knobs.pgs_sweeps.iter().map(|s| format!("pgs{s}")));
-    laws.extend(["newton".into(), "poisson".into()]);
+    laws.push("newton".into());
+    if !rough {
+        laws.push("poisson".into());
+    }
+    if with_stronge {
+        laws.push("stronge".into());
+    }
     for name in &laws {
         let law = parse_law(name).expect("ladder law names are valid");
-        let scene = variant(
-            path,
-            vec![name.clone()],
-            Precision::F64,
-            knobs.timing_samples,
-        )?;
+        let scene = variant(path, vec![name.clone()], Precision::F64, 1)?;
         let posts: Vec<Post> = evaluate_samples(&scene, law, 0, n)
             .iter()
             .map(post_of)
             .collect();
-        let ns = timed_run(&scene);
+        let ns = timed_run(path, name, Precision::F64, &knobs)?;
         progress(&format!("law {name}: {ns:.1} ns/sample"));
-        rungs.push(Rung {
-            family: "law".into(),
-            rung: name.clone(),
-            precision: "f64".into(),
-            ns_per_sample: ns,
-            vs_compliant: errors(&posts, &reference),
-            vs_newton: errors(&posts, &newton_posts),
-            point_error: None,
-            vs_flight_reference: None,
-            time_error: None,
-        });
+        rungs.push(judged(rung("law", name, "f64", ns), &posts));
     }
     for &steps in &knobs.compliant_steps {
-        let (posts, ns) = compliant_posts(&newton64, &inputs, knobs.effective_modulus, steps);
+        let (posts, ns) = compliant_posts(&newton64, &inputs, knobs.compliant(steps));
         progress(&format!("compliant {steps} steps: {ns:.0} ns/sample"));
-        rungs.push(Rung {
-            family: "compliant".into(),
-            rung: format!("compliant{steps}"),
-            precision: "f64".into(),
-            ns_per_sample: ns,
-            vs_compliant: errors(&posts, &reference),
-            vs_newton: errors(&posts, &newton_posts),
-            point_error: None,
-            vs_flight_reference: None,
-            time_error: None,
-        });
+        rungs.push(judged(
+            rung("compliant", &format!("compliant{steps}"), "f64", ns),
+            &posts,
+        ));
     }
     {
-        let scene = variant(
-            path,
-            vec!["newton".into()],
-            Precision::F32,
-            knobs.timing_samples,
-        )?;
+        let scene = variant(path, vec!["newton".into()], Precision::F32, 1)?;
         let posts: Vec<Post> = evaluate_samples(&scene, Law::Newton, 0, n)
             .iter()
             .map(post_of)
             .collect();
-        let ns = timed_run(&scene);
+        let ns = timed_run(path, "newton", Precision::F32, &knobs)?;
         progress(&format!("newton f32: {ns:.1} ns/sample"));
-        rungs.push(Rung {
-            family: "precision".into(),
-            rung: "newton".into(),
-            precision: "f32".into(),
-            ns_per_sample: ns,
-            vs_compliant: errors(&posts, &reference),
-            vs_newton: errors(&posts, &newton_posts),
-            point_error: None,
-            vs_flight_reference: None,
-            time_error: None,
-        });
+        rungs.push(judged(rung("precision", "newton", "f32", ns), &posts));
     }
     rungs.extend(contact_point_rungs(&newton64, &inputs));
 
@@ -172,6 +201,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         });
     }
     Ok(Ladder {
+        friction: rough,
         scene: base.name().to_string(),
         law_for_counts,
         knobs,
@@ -213,26 +243,12 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
     let (rms, p99) = rms_p99(errs);
     vec![
         Rung {
-            family: "contact_point".into(),
-            rung: "closed_form".into(),
-            precision: "f64".into(),
-            ns_per_sample: closed,
-            vs_compliant: Errors::NONE,
-            vs_newton: Errors::NONE,
             point_error: Some((0.0, 0.0)),
-            vs_flight_reference: None,
-            time_error: None,
+            ..rung("contact_point", "closed_form", "f64", closed)
         },
         Rung {
-            family: "contact_point".into(),
-            rung: "lagrange".into(),
-            precision: "f64".into(),
-            ns_per_sample: lagrange,
-            vs_compliant: Errors::NONE,
-            vs_newton: Errors::NONE,
             point_error: Some((rms, p99)),
-            vs_flight_reference: None,
-            time_error: None,
+            ..rung("contact_point", "lagrange", "f64", lagrange)
         },
     ]
 }

@@ -38,6 +38,9 @@ pub struct Knobs {
     pub sample_counts: Vec<u64>,
     pub timing_samples: u64,
     pub effective_modulus: f64,
+    /// Regularised Coulomb of the compliant rungs: ε relative to the
+    /// velocity scale `|v| + L|ω|` (friction.md's default 1e-6).
+    pub friction_regularisation: f64,
     /// Drop scenes: RK4 steps of flight rotation (s) and time-of-impact
     /// tolerances (m) to compare; the reference is ten times finer than the
     /// finest of each.
@@ -56,6 +59,15 @@ fn field_err(file: &str, field: &str, message: String) -> SceneError {
 
 impl Knobs {
     /// Defaults, then the scene's `[accuracy]` and `[material]`, validated.
+    /// The compliant model with `steps` RK4 steps per contact duration.
+    pub fn compliant(&self, steps: u32) -> CompliantParams {
+        CompliantParams {
+            effective_modulus: self.effective_modulus,
+            steps_per_contact: steps,
+            friction_regularisation: self.friction_regularisation,
+        }
+    }
+
     pub fn from_raw(file: &str, raw: &RawScene) -> Result<Self, SceneError> {
         let a = raw.accuracy.clone().unwrap_or_default();
         let k = Knobs {
@@ -80,6 +92,9 @@ impl Knobs {
                 .toi_tolerances
                 .clone()
                 .unwrap_or(vec![1e-2, 1e-3, 1e-5, 1e-7, 1e-9]),
+            friction_regularisation: a
+                .friction_regularisation
+                .unwrap_or(CompliantParams::REGULARISATION),
             effective_modulus: raw
                 .material
                 .as_ref()
@@ -137,6 +152,16 @@ impl Knobs {
                     format!("must list finite numbers > 0, got {xs:?}"),
                 ));
             }
+        }
+        if !(k.friction_regularisation.is_finite() && k.friction_regularisation > 0.0) {
+            return Err(field_err(
+                file,
+                "accuracy.friction_regularisation",
+                format!(
+                    "must be a finite number > 0 (a fraction of |v| + L|ω|), got {}",
+                    k.friction_regularisation
+                ),
+            ));
         }
         if k.timing_samples < 1000 {
             return Err(field_err(
@@ -253,20 +278,15 @@ pub fn sample_input(scene: &Scene, o: &SampleOutcome) -> (Pose, State) {
     )
 }
 
-/// Compliant outcomes of the samples with `steps` RK4 steps per contact
-/// duration (in parallel; each sample is independent), and the
-/// single-thread time per sample (ns) measured on the first samples.
+/// Compliant outcomes of the samples with `params` (in parallel; each
+/// sample is independent), and the single-thread time per sample (ns)
+/// measured on the first samples.
 pub fn compliant_posts(
     scene: &Scene,
     inputs: &[(Pose, State)],
-    modulus: f64,
-    steps: u32,
+    params: CompliantParams,
 ) -> (Vec<Post>, f64) {
     let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
-    let params = CompliantParams {
-        effective_modulus: modulus,
-        steps_per_contact: steps,
-    };
     let alpha = damping_table(&planes);
     let one = |(pose, state): &(Pose, State)| -> Post {
         match solve_compliant_with(scene.body(), *pose, *state, &planes, params, &alpha) {
@@ -302,6 +322,9 @@ pub struct Rung {
     pub ns_per_sample: f64,
     pub vs_compliant: Errors,
     pub vs_newton: Errors,
+    /// Scenes with friction and one touching plane: errors against
+    /// `stronge`, the rigid reference for one frictional contact.
+    pub vs_stronge: Option<Errors>,
     /// Contact-point rung only: RMS and p99 of |ΔP| / length scale.
     pub point_error: Option<(f64, f64)>,
     /// Flight rungs only (drop scenes): first-impact errors against the
@@ -322,6 +345,9 @@ pub struct CountRow {
 
 pub struct Ladder {
     pub scene: String,
+    /// A touching plane has μ > 0: the compliant rungs carry regularised
+    /// Coulomb.
+    pub friction: bool,
     pub law_for_counts: String,
     pub knobs: Knobs,
     pub rungs: Vec<Rung>,

@@ -10,13 +10,14 @@ use super::*;
 impl Ladder {
     /// `accuracy.parquet`: one row per rung (family `law`, `compliant`,
     /// `precision`, `contact_point`) and per sample count (family
-    /// `sample_count`); columns that do not apply are null.
+    /// `sample_count`); columns that do not apply are null (`*_vs_stronge`
+    /// outside scenes with one frictional contact).
     pub fn frame(&self) -> PolarsResult<DataFrame> {
         let mut family = Vec::new();
         let mut rung = Vec::new();
         let mut precision = Vec::new();
         let mut ns = Vec::new();
-        let mut cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); 12];
+        let mut cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); 18];
         let mut point: [Vec<Option<f64>>; 2] = [Vec::new(), Vec::new()];
         let mut samples = Vec::new();
         let mut wall = Vec::new();
@@ -28,7 +29,11 @@ impl Ladder {
             rung.push(r.rung.clone());
             precision.push(r.precision.clone());
             ns.push(Some(r.ns_per_sample));
-            let e = [r.vs_compliant, r.vs_newton];
+            let e = [
+                r.vs_compliant,
+                r.vs_newton,
+                r.vs_stronge.unwrap_or(Errors::NONE),
+            ];
             let vals: Vec<f64> = e
                 .iter()
                 .flat_map(|e| [e.v_rms, e.v_p99, e.w_rms, e.w_p99, e.ratio_rms, e.ratio_p99])
@@ -73,6 +78,12 @@ impl Ladder {
             "omega_after_p99_vs_newton",
             "energy_ratio_rms_vs_newton",
             "energy_ratio_p99_vs_newton",
+            "v_after_rms_vs_stronge",
+            "v_after_p99_vs_stronge",
+            "omega_after_rms_vs_stronge",
+            "omega_after_p99_vs_stronge",
+            "energy_ratio_rms_vs_stronge",
+            "energy_ratio_p99_vs_stronge",
         ];
         let height = family.len();
         let mut columns = vec![
@@ -161,11 +172,34 @@ impl Ladder {
             }
             return s;
         }
+        let stronge = self.rungs.iter().any(|r| r.vs_stronge.is_some());
+        let rough = self.friction;
         s.push_str(&format!(
-            "Errors over the same {} samples, against the finest compliant run ({} RK4 steps per contact, E* = {:e} Pa) and against the exact Newton LCP in f64: RMS and p99 of |Δv⁺| (m/s), |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|. Cost: end-to-end ns per sample on one thread (rigid laws: a timed run of {} samples with sampling and statistics; compliant: the integration alone).\n\n",
-            self.knobs.samples, self.knobs.reference_steps, self.knobs.effective_modulus, self.knobs.timing_samples
+            "Errors over the same {} samples, against the finest compliant run ({} RK4 steps per contact, E* = {:e} Pa{}) and against the exact Newton LCP in f64{}: RMS and p99 of |Δv⁺| (m/s), |Δω⁺| (rad/s) and |Δ(T⁺/T⁻)|. Cost: end-to-end ns per sample on one thread (rigid laws: a timed run of {} samples, or of as many as take about 5 s for slow laws, with sampling and statistics; compliant: the integration alone).\n\n",
+            self.knobs.samples,
+            self.knobs.reference_steps,
+            self.knobs.effective_modulus,
+            if rough {
+                format!(
+                    ", regularised Coulomb with ε = {:e} (|v| + L|ω|)",
+                    self.knobs.friction_regularisation
+                )
+            } else {
+                String::new()
+            },
+            if stronge {
+                " and `stronge` (the rigid reference for one frictional contact)"
+            } else {
+                ""
+            },
+            self.knobs.timing_samples
         ));
-        s.push_str("| rung | precision | ns/sample | v⁺ RMS vs compliant | v⁺ p99 | ω⁺ RMS | T⁺/T⁻ RMS | v⁺ RMS vs newton | ω⁺ RMS vs newton | T⁺/T⁻ RMS vs newton |\n|---|---|---|---|---|---|---|---|---|---|\n");
+        s.push_str("| rung | precision | ns/sample | v⁺ RMS vs compliant | v⁺ p99 | ω⁺ RMS | T⁺/T⁻ RMS | v⁺ RMS vs newton | ω⁺ RMS vs newton | T⁺/T⁻ RMS vs newton |");
+        if stronge {
+            s.push_str(" v⁺ RMS vs stronge | ω⁺ RMS vs stronge | T⁺/T⁻ RMS vs stronge |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        } else {
+            s.push_str("\n|---|---|---|---|---|---|---|---|---|---|\n");
+        }
         let g = |x: f64| {
             if x.is_finite() {
                 format!("{x:.2e}")
@@ -176,7 +210,7 @@ impl Ladder {
         for r in self.rungs.iter().filter(|r| r.family != "contact_point") {
             let (c, n) = (r.vs_compliant, r.vs_newton);
             s.push_str(&format!(
-                "| {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |",
                 r.rung,
                 r.precision,
                 r.ns_per_sample,
@@ -188,6 +222,16 @@ impl Ladder {
                 g(n.w_rms),
                 g(n.ratio_rms)
             ));
+            if stronge {
+                let t = r.vs_stronge.unwrap_or(Errors::NONE);
+                s.push_str(&format!(
+                    " {} | {} | {} |",
+                    g(t.v_rms),
+                    g(t.w_rms),
+                    g(t.ratio_rms)
+                ));
+            }
+            s.push('\n');
         }
         s.push_str("\n**Contact point** (per touching plane; error of the point relative to the closed form, in units of the body's largest semi-axis):\n\n| route | ns/call | error RMS | error p99 |\n|---|---|---|---|\n");
         for r in self.rungs.iter().filter(|r| r.family == "contact_point") {
@@ -273,6 +317,16 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
             r.family != "compliant" && r.vs_newton.v_rms.is_finite() && r.vs_newton.v_rms > 0.0
         })
         .collect();
+    // One frictional contact: every rung against `stronge` (hollow
+    // triangles), the rigid reference that never creates energy.
+    let vs_stronge: Vec<(&Rung, f64)> = ladder
+        .rungs
+        .iter()
+        .filter_map(|r| {
+            let e = r.vs_stronge?.v_rms;
+            (e.is_finite() && e > 0.0).then_some((r, e))
+        })
+        .collect();
     let span = |xs: &mut dyn Iterator<Item = f64>| -> (f64, f64) {
         let (lo, hi) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
         (lo / 2.0, hi * 2.0)
@@ -291,14 +345,16 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
             .iter()
             .chain(vs_newton.iter())
             .map(|r| r.ns_per_sample)
-            .chain(flight.iter().map(|(r, _)| r.ns_per_sample)),
+            .chain(flight.iter().map(|(r, _)| r.ns_per_sample))
+            .chain(vs_stronge.iter().map(|(r, _)| r.ns_per_sample)),
     );
     let (y0, y1) = span(
         &mut pts
             .iter()
             .map(|r| r.vs_compliant.v_rms)
             .chain(vs_newton.iter().map(|r| r.vs_newton.v_rms))
-            .chain(flight.iter().map(|(_, e)| *e)),
+            .chain(flight.iter().map(|(_, e)| *e))
+            .chain(vs_stronge.iter().map(|(_, e)| *e)),
     );
     if !(x0 < x1 && y0 < y1) {
         return Err("nothing to plot: every rung's error is zero or missing".into());
@@ -316,7 +372,11 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
     chart
         .configure_mesh()
         .x_desc("ns per sample, one thread (log)")
-        .y_desc("RMS |Δv⁺|, m/s (log): ● vs finest compliant, □ vs exact Newton")
+        .y_desc(if vs_stronge.is_empty() {
+            "RMS |Δv⁺|, m/s (log): ● vs finest compliant, □ vs exact Newton"
+        } else {
+            "RMS |Δv⁺|, m/s (log): ● vs finest compliant, □ vs exact Newton, △ vs stronge"
+        })
         .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .draw()
@@ -384,6 +444,25 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
             .legend(move |(x, y)| {
                 Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], colour.stroke_width(1))
             });
+    }
+    for (family, colour) in [("law", BLUE), ("compliant", GREEN), ("precision", MAGENTA)] {
+        let elems: Vec<_> = vs_stronge
+            .iter()
+            .filter(|(r, _)| r.family == family)
+            .map(|(r, y)| {
+                EmptyElement::at((r.ns_per_sample, *y))
+                    + TriangleMarker::new((0, 0), 5, colour.stroke_width(1))
+                    + Text::new(label_for(r, *y), (6, -12), ("sans-serif", 13))
+            })
+            .collect();
+        if elems.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(elems)
+            .map_err(|x| e(&x))?
+            .label(format!("{family} vs stronge"))
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, colour.stroke_width(1)));
     }
     for (family, colour) in [("flight_step", CYAN), ("toi_tolerance", BLACK)] {
         let elems: Vec<_> = flight

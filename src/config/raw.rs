@@ -79,6 +79,9 @@ pub struct RawAccuracy {
     pub flight_steps: Option<Vec<f64>>,
     /// Drop scenes: time-of-impact tolerances to compare (m).
     pub toi_tolerances: Option<Vec<f64>>,
+    /// Compliant rungs with friction: the regularisation ε of Coulomb's law
+    /// relative to the velocity scale `|v| + L|ω|` (default 1e-6).
+    pub friction_regularisation: Option<f64>,
 }
 
 /// Which statistics a run keeps (`[statistics]`). Counts, fractions and
