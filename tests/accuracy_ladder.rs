@@ -129,11 +129,11 @@ fn compliant_error_falls_as_the_step_shrinks() {
     let s = scene("corner3", "f64");
     let outcomes = evaluate_samples(&s, Law::Newton, 0, 150);
     let inputs: Vec<_> = outcomes.iter().map(|o| sample_input(&s, o)).collect();
-    let (reference, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, 1600));
+    let (reference, _, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, 1600));
     let mut previous = f64::INFINITY;
     let mut seen = Vec::new();
     for steps in [12u32, 25, 50, 100, 200] {
-        let (posts, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, steps));
+        let (posts, _, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, steps));
         let e = errors(&posts, &reference).v_rms;
         seen.push((steps, e));
         assert!(e < previous, "compliant error did not fall: {seen:?}");

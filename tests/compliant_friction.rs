@@ -127,11 +127,11 @@ fn rough_corner_converges_as_the_step_shrinks() {
     let s = rough_scene("corner3", 0.3, "compliant-steps", &Overrides::default());
     let outcomes = evaluate_samples(&s, Law::Paper, 0, 60);
     let inputs: Vec<_> = outcomes.iter().map(|o| sample_input(&s, o)).collect();
-    let (reference, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, 1600));
+    let (reference, _, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, 1600));
     let mut previous = f64::INFINITY;
     let mut seen = Vec::new();
     for steps in [12u32, 50, 200] {
-        let (posts, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, steps));
+        let (posts, _, _) = compliant_posts(&s, &inputs, CompliantParams::new(1.15e11, steps));
         let e = errors(&posts, &reference).v_rms;
         seen.push((steps, e));
         assert!(e < previous, "error did not fall: {seen:?}");

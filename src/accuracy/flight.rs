@@ -94,6 +94,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             vs_compliant: Errors::NONE,
             vs_newton: Errors::NONE,
             vs_stronge: None,
+            unseparated: None,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -114,6 +115,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             vs_compliant: Errors::NONE,
             vs_newton: Errors::NONE,
             vs_stronge: None,
+            unseparated: None,
             point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -121,6 +123,7 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
     }
     Ladder {
         friction: false,
+        reference_unseparated: 0,
         scene: scene.name().to_string(),
         law_for_counts: law.name(),
         knobs,

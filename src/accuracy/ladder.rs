@@ -71,6 +71,7 @@ fn rung(family: &str, name: &str, precision: &str, ns: f64) -> Rung {
         vs_compliant: Errors::NONE,
         vs_newton: Errors::NONE,
         vs_stronge: None,
+        unseparated: None,
         point_error: None,
         vs_flight_reference: None,
         time_error: None,
@@ -126,8 +127,13 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             String::new()
         }
     ));
-    let (reference, _) =
+    let (reference, _, reference_unseparated) =
         compliant_posts(&newton64, &inputs, knobs.compliant(knobs.reference_steps));
+    if reference_unseparated > 0 {
+        progress(&format!(
+            "reference: {reference_unseparated} samples not separated within the step budget"
+        ));
+    }
     let judged = |mut r: Rung, posts: &[Post]| -> Rung {
         r.vs_compliant = errors(posts, &reference);
         r.vs_newton = errors(posts, &newton_posts);
@@ -157,10 +163,15 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         rungs.push(judged(rung("law", name, "f64", ns), &posts));
     }
     for &steps in &knobs.compliant_steps {
-        let (posts, ns) = compliant_posts(&newton64, &inputs, knobs.compliant(steps));
-        progress(&format!("compliant {steps} steps: {ns:.0} ns/sample"));
+        let (posts, ns, unseparated) = compliant_posts(&newton64, &inputs, knobs.compliant(steps));
+        progress(&format!(
+            "compliant {steps} steps: {ns:.0} ns/sample, {unseparated} not separated"
+        ));
         rungs.push(judged(
-            rung("compliant", &format!("compliant{steps}"), "f64", ns),
+            Rung {
+                unseparated: Some(unseparated as f64 / n as f64),
+                ..rung("compliant", &format!("compliant{steps}"), "f64", ns)
+            },
             &posts,
         ));
     }
@@ -202,6 +213,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     }
     Ok(Ladder {
         friction: rough,
+        reference_unseparated,
         scene: base.name().to_string(),
         law_for_counts,
         knobs,

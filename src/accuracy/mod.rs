@@ -279,28 +279,37 @@ pub fn sample_input(scene: &Scene, o: &SampleOutcome) -> (Pose, State) {
 }
 
 /// Compliant outcomes of the samples with `params` (in parallel; each
-/// sample is independent), and the single-thread time per sample (ns)
-/// measured on the first samples.
+/// sample is independent), the single-thread time per sample (ns) measured
+/// on the first samples, and how many samples had not separated when the
+/// step budget (200 contact durations) ran out: their outcome is where the
+/// integration stopped, which coarse steps can leave in a long rolling or
+/// sliding contact that finer steps resolve.
 pub fn compliant_posts(
     scene: &Scene,
     inputs: &[(Pose, State)],
     params: CompliantParams,
-) -> (Vec<Post>, f64) {
+) -> (Vec<Post>, f64, usize) {
     let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
     let alpha = damping_table(&planes);
-    let one = |(pose, state): &(Pose, State)| -> Post {
+    let one = |(pose, state): &(Pose, State)| -> (Post, bool) {
         match solve_compliant_with(scene.body(), *pose, *state, &planes, params, &alpha) {
-            Ok(o) => Post {
-                v: o.after.velocity,
-                w: o.after.omega,
-                ratio: o.energy_after / o.energy_before,
-            },
+            Ok(o) => (
+                Post {
+                    v: o.after.velocity,
+                    w: o.after.omega,
+                    ratio: o.energy_after / o.energy_before,
+                },
+                o.separated,
+            ),
             // Nothing approaching: the body leaves untouched.
-            Err(_) => Post {
-                v: state.velocity,
-                w: state.omega,
-                ratio: 1.0,
-            },
+            Err(_) => (
+                Post {
+                    v: state.velocity,
+                    w: state.omega,
+                    ratio: 1.0,
+                },
+                true,
+            ),
         }
     };
     let timed = inputs.len().min(200);
@@ -309,7 +318,9 @@ pub fn compliant_posts(
         std::hint::black_box(one(x));
     }
     let ns = t0.elapsed().as_secs_f64() * 1e9 / timed as f64;
-    (inputs.par_iter().map(one).collect(), ns)
+    let runs: Vec<(Post, bool)> = inputs.par_iter().map(one).collect();
+    let unseparated = runs.iter().filter(|(_, separated)| !separated).count();
+    (runs.into_iter().map(|(p, _)| p).collect(), ns, unseparated)
 }
 
 /// One rung of the ladder.
@@ -325,6 +336,9 @@ pub struct Rung {
     /// Scenes with friction and one touching plane: errors against
     /// `stronge`, the rigid reference for one frictional contact.
     pub vs_stronge: Option<Errors>,
+    /// Compliant rungs only: the fraction of samples whose integration had
+    /// not separated when its step budget ran out.
+    pub unseparated: Option<f64>,
     /// Contact-point rung only: RMS and p99 of |ΔP| / length scale.
     pub point_error: Option<(f64, f64)>,
     /// Flight rungs only (drop scenes): first-impact errors against the
@@ -348,6 +362,9 @@ pub struct Ladder {
     /// A touching plane has μ > 0: the compliant rungs carry regularised
     /// Coulomb.
     pub friction: bool,
+    /// Samples whose reference (finest compliant) run had not separated
+    /// when its step budget ran out.
+    pub reference_unseparated: usize,
     pub law_for_counts: String,
     pub knobs: Knobs,
     pub rungs: Vec<Rung>,

@@ -130,6 +130,10 @@ impl Ladder {
             "impact_time_p99_error".into(),
             fl(&|r| r.time_error.map(|t| t.1)),
         ));
+        columns.push(Column::new(
+            "unseparated_fraction".into(),
+            fl(&|r| r.unseparated),
+        ));
         columns.push(Column::new("wall_seconds".into(), wall));
         columns.push(Column::new("energy_ratio_mean".into(), mean));
         columns.push(Column::new("energy_ratio_ci95".into(), ci));
@@ -232,6 +236,26 @@ impl Ladder {
                 ));
             }
             s.push('\n');
+        }
+        let unseparated: Vec<String> = self
+            .rungs
+            .iter()
+            .filter_map(|r| {
+                let f = r.unseparated.filter(|f| *f > 0.0)?;
+                Some(format!("{} {:.2} %", r.rung, 100.0 * f))
+            })
+            .collect();
+        if !unseparated.is_empty() || self.reference_unseparated > 0 {
+            s.push_str(&format!(
+                "\nCompliant runs that had not separated when their step budget (200 contact durations) ran out, whose outcome is where the integration stopped: {}; reference: {} of {} samples.\n",
+                if unseparated.is_empty() {
+                    "none".to_string()
+                } else {
+                    unseparated.join(", ")
+                },
+                self.reference_unseparated,
+                self.knobs.samples
+            ));
         }
         s.push_str("\n**Contact point** (per touching plane; error of the point relative to the closed form, in units of the body's largest semi-axis):\n\n| route | ns/call | error RMS | error p99 |\n|---|---|---|---|\n");
         for r in self.rungs.iter().filter(|r| r.family == "contact_point") {

@@ -298,45 +298,57 @@ fn skew(x: DVec3) -> DMat3 {
 /// `f = −a c / sqrt(|c|² + ε²)` with `c = c₀ + W f`, where `c₀` is the
 /// contact's tangential velocity without its own impulse. Then
 /// `c = (I + (a/s) W)⁻¹ c₀` with `s = sqrt(|c|² + ε²)`, a scalar equation
-/// in `s` on `[ε, sqrt(|c₀|² + ε²)]` that changes sign there and has one
-/// root (the contact's step minimises a strictly convex function). It is
-/// found by bisection in `ln s` to the last bit.
+/// `φ(s) = sqrt(|c(s)|² + ε²) − s = 0` on `[ε, sqrt(|c₀|² + ε²)]`, where φ
+/// changes sign and has one root (the contact's step minimises a strictly
+/// convex function). Newton's method on φ, kept inside the bracket by
+/// bisection in `ln s`, finds it to rounding.
 fn rough_contact(r: &Rough, c0: DVec3, e2: f64) -> DVec3 {
     let a = r.bound;
     let alpha = [r.e[0].dot(c0), r.e[1].dot(c0)];
-    let c_of = |s: f64| -> [f64; 2] {
-        let sigma = a / s;
-        [
-            alpha[0] / (1.0 + sigma * r.w[0]),
-            alpha[1] / (1.0 + sigma * r.w[1]),
-        ]
-    };
-    let residual = |s: f64| -> f64 {
-        let c = c_of(s);
-        (c[0] * c[0] + c[1] * c[1] + e2).sqrt() - s
+    // c_j(s) = α_j s / (s + a w_j), and φ and φ′ at s.
+    let eval = |s: f64| -> (f64, f64, [f64; 2]) {
+        let mut c = [0.0; 2];
+        let mut dc2 = 0.0;
+        for j in 0..2 {
+            let d = s + a * r.w[j];
+            c[j] = alpha[j] * s / d;
+            dc2 += 2.0 * c[j] * alpha[j] * a * r.w[j] / (d * d);
+        }
+        let root = (c[0] * c[0] + c[1] * c[1] + e2).sqrt();
+        (root - s, dc2 / (2.0 * root) - 1.0, c)
     };
     let (mut lo, mut hi) = (
-        e2.sqrt().ln(),
-        (alpha[0] * alpha[0] + alpha[1] * alpha[1] + e2).sqrt().ln(),
+        e2.sqrt(),
+        (alpha[0] * alpha[0] + alpha[1] * alpha[1] + e2).sqrt(),
     );
-    if residual(hi.exp()) >= 0.0 {
-        // W does not contract c₀ at all (it cannot happen for a body with
-        // mass): no impulse.
+    let (phi_hi, _, _) = eval(hi);
+    if phi_hi >= 0.0 {
+        // W does not contract c₀ (no impulse can move this contact).
         return DVec3::ZERO;
     }
-    for _ in 0..80 {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
+    let mut s = hi;
+    for _ in 0..200 {
+        let (phi, dphi, _) = eval(s);
+        if phi >= 0.0 {
+            lo = s;
+        } else {
+            hi = s;
+        }
+        if phi == 0.0 || hi - lo <= 4.0 * f64::EPSILON * hi {
             break;
         }
-        if residual(mid.exp()) >= 0.0 {
-            lo = mid;
+        let newton = s - phi / dphi;
+        s = if newton > lo && newton < hi && dphi < 0.0 {
+            newton
         } else {
-            hi = mid;
+            (lo * hi).sqrt()
+        };
+        if (s - lo).min(hi - s) <= f64::EPSILON * s {
+            // The bracket cannot be split further at this precision.
+            break;
         }
     }
-    let s = (0.5 * (lo + hi)).exp();
-    let c = c_of(s);
+    let (_, _, c) = eval(s);
     let ct = r.e[0] * c[0] + r.e[1] * c[1];
     -ct * (a / s)
 }
