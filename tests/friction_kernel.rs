@@ -174,3 +174,64 @@ fn f64_friction_kernel_matches_the_reference() {
 fn f32_friction_kernel_matches_the_reference() {
     check("f32");
 }
+
+/// `--per-sample` on a frictional scene writes the friction columns: per
+/// law and touching plane the tangential impulse and sliding speed, per law
+/// the sticking bitmask and the friction flags, equal to what the kernel
+/// computes for the same samples.
+#[test]
+fn per_sample_rows_carry_the_friction_columns() {
+    use arrow_array::types::{Float32Type, UInt8Type};
+    use impactmc::kernel::{AMBIGUOUS, UNCONVERGED};
+    let dir = support::tmpdir("friction-per-sample");
+    let out = dir.join("out");
+    let status = support::bin()
+        .arg("run")
+        .arg(support::repo("configs/floor_friction.toml"))
+        .args([
+            "--samples",
+            "3000",
+            "--precision",
+            "f32",
+            "--per-sample",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let rows = support::read_parquet(&out.join("samples.parquet"));
+    let scene = support::shipped_scene("floor_friction", "f32");
+    let mut sticking_seen = 0;
+    for law in [Law::Newton, Law::Stronge] {
+        let l = law.name();
+        let want = evaluate_samples(&scene, law, 0, 3000);
+        let tangential =
+            support::column::<Float32Type>(&rows, &format!("tangential_impulse_{l}_floor"));
+        let sliding = support::column::<Float32Type>(&rows, &format!("sliding_speed_{l}_floor"));
+        let sticking = support::column::<UInt8Type>(&rows, &format!("sticking_{l}"));
+        let flags = support::column::<UInt8Type>(&rows, &format!("friction_flags_{l}"));
+        assert_eq!(tangential.len(), 3000);
+        for (k, o) in want.iter().enumerate() {
+            assert_eq!(tangential[k] as f64, o.tangential[0], "{l} sample {k}");
+            assert_eq!(sliding[k] as f64, o.sliding[0], "{l} sample {k}");
+            assert_eq!(
+                sticking[k] as u32,
+                (o.status >> STICKING_SHIFT) & 1,
+                "{l} sample {k}"
+            );
+            let f = (o.status & AMBIGUOUS != 0) as u8 | ((o.status & UNCONVERGED != 0) as u8) << 1;
+            assert_eq!(flags[k], f, "{l} sample {k}");
+            sticking_seen += sticking[k] as usize;
+            // A sticking contact does not slide; a sliding one has friction.
+            if sticking[k] == 1 {
+                assert!(sliding[k] <= 1e-6 * (1.0 + tangential[k]), "{l} sample {k}");
+            }
+        }
+    }
+    assert!(sticking_seen > 100, "sticking in {sticking_seen} rows");
+}

@@ -130,8 +130,6 @@ fn laws_that_friction_rules_out_are_refused() {
     edited("floor", &[], 1000, &["poisson"]).unwrap();
     let err = edited("corner3", &[], 1000, &["stronge"]).unwrap_err();
     assert!(err.contains("stronge") && err.contains("wall_x"), "{err}");
-    let err = edited("drop_corner", &[], 1000, &["stronge"]).unwrap_err();
-    assert!(err.contains("stronge") && err.contains("drop"), "{err}");
     let err = edited(
         "floor",
         &[(
@@ -155,4 +153,73 @@ fn laws_that_friction_rules_out_are_refused() {
             .unwrap()
     };
     assert_eq!(e("newton"), e("stronge"));
+}
+
+/// Drops with friction: the first impact's friction statistics are in the
+/// summary, and `stronge` in flight solves an impact that meets several
+/// planes at once with `newton`, counted as `coupled_fallback`
+/// (friction.md). A sphere thrown without gravity at the edge of a wall and
+/// the floor meets both at once, in every sample.
+#[test]
+fn drops_with_friction_report_it_and_stronge_falls_back_on_several_planes() {
+    let rough = [
+        ("restitution = 0.5\n", "restitution = 0.5\nfriction = 0.3\n"),
+        ("restitution = 0.7\n", "restitution = 0.7\nfriction = 0.3\n"),
+        ("restitution = 0.9\n", "restitution = 0.9\nfriction = 0.3\n"),
+    ];
+    let s = edited("drop_corner", &rough, 2000, &["newton", "stronge"]).unwrap();
+    let r = summary(&s, 2);
+    for law in ["newton", "stronge"] {
+        let all = r.all_group(law).unwrap();
+        for plane in ["wall_x", "wall_y", "floor"] {
+            let stuck = all.fractions[&format!("sticking_{plane}")]
+                .as_f64()
+                .unwrap();
+            assert!((0.0..=1.0).contains(&stuck), "{law} {plane}: {stuck}");
+            assert!(all
+                .stats
+                .contains_key(&format!("tangential_impulse_{plane}")));
+        }
+        let fallback = all.fractions["coupled_fallback"].as_f64().unwrap();
+        if law == "newton" {
+            assert_eq!(fallback, 0.0);
+        }
+    }
+
+    let mut edge = rough.to_vec();
+    edge.extend([
+        ("semi_axes = [0.5, 0.3, 0.2]", "semi_axes = [0.5, 0.5, 0.5]"),
+        (
+            "drop = { min = [0.6, 0.6, 1.0], max = [1.2, 1.2, 2.0] }",
+            "drop = { min = [1.0, 3.0, 1.0], max = [1.0, 3.0, 1.0] }",
+        ),
+        ("gravity = 9.81", "gravity = 0.0"),
+        ("bounces = 5", "bounces = 1"),
+        (
+            "mean = [-1.5, -1.5, 0.0]\nsd = [0.5, 0.5, 0.5]",
+            "mean = [-1.0, 0.0, -1.0]\nsd = [0.0, 0.0, 0.0]",
+        ),
+        ("sd = [2.0, 2.0, 2.0]", "sd = [0.0, 0.0, 0.0]"),
+    ]);
+    let s = edited("drop_corner", &edge, 200, &["newton", "stronge"]).unwrap();
+    let r = summary(&s, 2);
+    let all = |law: &str| r.all_group(law).unwrap();
+    assert_eq!(
+        all("stronge").fractions["coupled_fallback"].as_f64(),
+        Some(1.0)
+    );
+    assert_eq!(
+        all("newton").fractions["coupled_fallback"].as_f64(),
+        Some(0.0)
+    );
+    // Solved by newton, the impact is newton's.
+    assert_eq!(
+        all("stronge").stats["energy_ratio"]["mean"],
+        all("newton").stats["energy_ratio"]["mean"]
+    );
+    // Every sample's first impact meets the wall and the floor together.
+    assert_eq!(
+        all("newton").active_sets["wall_x+floor"].as_f64(),
+        Some(1.0)
+    );
 }

@@ -334,8 +334,9 @@ impl Scene {
 
     /// The laws a scene's planes allow (friction.md): `poisson` is not
     /// defined with friction on a plane that can take an impact; `stronge`
-    /// takes one touching plane, and does not run in drop scenes (where
-    /// several planes can meet at an impact).
+    /// takes one touching plane. In a drop scene `stronge` solves impacts
+    /// on one plane, and one that meets several planes at once is solved by
+    /// `newton` and counted as `coupled_fallback`.
     fn check_laws_with_friction(
         laws: &[Law],
         planes: &[NamedPlane],
@@ -365,13 +366,7 @@ impl Scene {
         }
         if laws.contains(&Law::Stronge) {
             let at = position(Law::Stronge);
-            if drop {
-                return Err(bad(
-                    &["laws", &at],
-                    "law stronge does not run in drop scenes (several planes can meet at an impact there); use newton, paper or pgsN",
-                ));
-            }
-            if touching.len() > 1 {
+            if !drop && touching.len() > 1 {
                 let names: Vec<&str> = touching.iter().map(|&i| planes[i].name.as_str()).collect();
                 return Err(bad(
                     &["laws", &at],

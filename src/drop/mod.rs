@@ -19,8 +19,8 @@ use crate::config::{Scene, Statistic};
 use crate::lanes::Real;
 use crate::output::samples::{DropRow, SampleRows};
 use crate::physics::{
-    solve_impact, time_of_impact, Ellipsoid, Impact, ImpactOutcome, Law, Motion, Plane, Pose,
-    Rotation, State,
+    solve_impact, time_of_impact, Ellipsoid, Impact, ImpactError, ImpactOutcome, Law, Motion,
+    Plane, Pose, Rotation, State,
 };
 use crate::sampler::rng::CounterRng;
 use crate::sampler::Sampler;
@@ -91,13 +91,16 @@ impl Flight {
         }
     }
 
-    /// Flies from `m` to the next impact and solves it under `law`.
+    /// Flies from `m` to the next impact and solves it under `law`. An
+    /// impact that touches several planes at once under `stronge` (defined
+    /// for one contact) is solved by `newton` (friction.md), and the third
+    /// value says so (`coupled_fallback`).
     fn next(
         &self,
         body: &Ellipsoid,
         m: &Motion,
         law: Law,
-    ) -> Result<(Impact, ImpactOutcome), Stop> {
+    ) -> Result<(Impact, ImpactOutcome, bool), Stop> {
         let hit = time_of_impact(
             body,
             m,
@@ -116,9 +119,15 @@ impl Flight {
             velocity: hit.motion.velocity,
             omega: hit.motion.omega,
         };
-        let o = solve_impact(body, pose, state, &self.planes, law, self.contact_tolerance)
-            .map_err(|_| Stop::Unsolved)?;
-        Ok((hit, o))
+        let solve =
+            |law| solve_impact(body, pose, state, &self.planes, law, self.contact_tolerance);
+        match solve(law) {
+            Ok(o) => Ok((hit, o, false)),
+            Err(ImpactError::StrongeSeveral(_)) => solve(Law::Newton)
+                .map(|o| (hit, o, true))
+                .map_err(|_| Stop::Unsolved),
+            Err(_) => Err(Stop::Unsolved),
+        }
     }
 }
 
@@ -205,7 +214,7 @@ impl<'a> DropCtx<'a> {
                 break Ending::Stalled;
             }
             attempts += 1;
-            let (hit, o) = match self.flight.next(body, &m, law) {
+            let (hit, o, coupled_fallback) = match self.flight.next(body, &m, law) {
                 Ok(x) => x,
                 Err(Stop::FlewAway) => break Ending::FlewAway,
                 Err(Stop::Unsolved) => {
@@ -230,7 +239,7 @@ impl<'a> DropCtx<'a> {
             }
             if impacts == 0 {
                 t0 = o.energy_before;
-                first = Some(self.record_first(la, &o, mask));
+                first = Some(self.record_first(la, &hit.motion, &o, mask, coupled_fallback));
             }
             if let Some(slot) = masks.get_mut(impacts) {
                 *slot = mask;
@@ -295,7 +304,36 @@ impl<'a> DropCtx<'a> {
     /// A first impact as a contact scene's impact: active set, headline
     /// statistics (histograms where the scene asks for quantiles), impulse
     /// and rebound per plane, flags.
-    fn record_first(&self, la: &mut LawAcc, o: &ImpactOutcome, mask: usize) -> [f64; 3] {
+    fn record_first(
+        &self,
+        la: &mut LawAcc,
+        before: &Motion,
+        o: &ImpactOutcome,
+        mask: usize,
+        coupled_fallback: bool,
+    ) -> [f64; 3] {
+        if let Some(fr) = &mut la.friction {
+            let before = State {
+                velocity: before.velocity,
+                omega: before.omega,
+            };
+            let stuck_at =
+                crate::physics::friction::sticking_threshold(self.scene.body(), &before, &o.after);
+            fr.ambiguous += o.flags.ambiguous as u64;
+            fr.unconverged += o.flags.unconverged as u64;
+            fr.coupled_fallback += coupled_fallback as u64;
+            for (i, c) in o.contacts.iter().enumerate() {
+                let active = c.impulse > 0.0;
+                fr.tangential_impulse[i]
+                    .moments
+                    .push(c.tangential_impulse.length());
+                if active {
+                    fr.sliding_speed[i].moments.push(c.sliding_after);
+                }
+                fr.active[i] += active as u64;
+                fr.sticking[i] += (active && c.sliding_after <= stuck_at) as u64;
+            }
+        }
         let q = self.quantiles;
         let by_set = self.by_set;
         let values = [
@@ -392,7 +430,7 @@ pub fn first_impact(
     rotation: Rotation,
     toi_tolerance: f64,
 ) -> Option<(f64, DVec3, DVec3, f64)> {
-    let (hit, o) = Flight::new(scene, rotation, toi_tolerance)
+    let (hit, o, _) = Flight::new(scene, rotation, toi_tolerance)
         .next(scene.body(), start, law)
         .ok()?;
     if o.contacts.iter().all(|c| c.impulse <= 0.0) {

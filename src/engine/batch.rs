@@ -190,7 +190,14 @@ pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: boo
         acc,
     );
     if let Some(rows) = rows {
-        push_rows(&work.inputs, &work.geo, &work.outs, first, count, rows);
+        push_rows(
+            &work.inputs,
+            &work.geo,
+            &work.outs,
+            (first, count),
+            scene.effects().friction,
+            rows,
+        );
     }
 }
 

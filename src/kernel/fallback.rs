@@ -93,12 +93,7 @@ pub fn recompute<T: Real, const N: usize>(
         {
             status |= PENETRATING;
         }
-        // friction.md's sticking: `|c⁺_t| ≤ 1e-9 ×` the larger velocity
-        // scale of before and after.
-        let l = scene.body().length_scale();
-        let stuck_at = 1e-9
-            * (state.velocity.length() + l * state.omega.length())
-                .max(o.after.velocity.length() + l * o.after.omega.length());
+        let stuck_at = crate::physics::friction::sticking_threshold(scene.body(), &state, &o.after);
         for (i, &p) in scene.touching().iter().enumerate() {
             let ct = &o.contacts[p];
             out.lambda[i][s] = T::from_f64(ct.impulse);

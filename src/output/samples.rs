@@ -6,7 +6,10 @@
 use glam::{DMat3, DQuat};
 
 use crate::config::{Precision, Scene};
-use crate::kernel::{Geometry, LawOut, ACTIVE_SHIFT, DEGENERATE, ENERGY_GAIN, JAMMED, UNSOLVED};
+use crate::kernel::{
+    Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, STICKING_SHIFT,
+    UNCONVERGED, UNSOLVED,
+};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::physics::{ImpactOutcome, Motion};
@@ -159,7 +162,9 @@ pub fn float_precision(scene: &Scene) -> Precision {
 /// The unit of a per-sample float column, from its name (the key-value
 /// metadata `impactmc.units` of `samples.parquet`).
 pub fn unit_of(column: &str) -> &'static str {
-    const UNITS: [(&str, &str); 11] = [
+    const UNITS: [(&str, &str); 13] = [
+        ("tangential_impulse_", "N·s"),
+        ("sliding_speed_", "m/s"),
         ("q_", "1"),
         ("energy_ratio", "1"),
         ("energy_", "J"),
@@ -307,7 +312,11 @@ impl SampleRows {
 /// The per-sample columns after `sample` (u64): the float columns, then the
 /// integer columns. Units: m/s, rad/s, J, N·s; `active_LAW` (u8) is the
 /// active-set bitmask over the touching planes in scene order, `flags_LAW`
-/// (u16) the kernel status bits (see the reference).
+/// (u16) the kernel status bits (see the reference). A scene with friction
+/// adds per law and touching plane `tangential_impulse_LAW_PLANE` (|f_i|,
+/// N·s) and `sliding_speed_LAW_PLANE` (|c⁺_t,i|, m/s), and per law
+/// `sticking_LAW` (u8, bit i: the i-th touching plane ended sticking) and
+/// `friction_flags_LAW` (u8: bit 0 ambiguous, bit 1 unconverged).
 pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     if scene.drop_box().is_some() {
         return drop_columns(scene);
@@ -335,6 +344,7 @@ pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     .collect();
     f.extend(planes.iter().map(|p| format!("vn_before_{p}")));
     let mut ints = Vec::new();
+    let friction = scene.effects().friction;
     for law in scene.laws() {
         let l = law.name();
         f.push(format!("energy_after_{l}"));
@@ -347,20 +357,29 @@ pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
         }
         f.extend(planes.iter().map(|p| format!("impulse_{l}_{p}")));
         f.extend(planes.iter().map(|p| format!("vn_after_{l}_{p}")));
+        if friction {
+            f.extend(planes.iter().map(|p| format!("tangential_impulse_{l}_{p}")));
+            f.extend(planes.iter().map(|p| format!("sliding_speed_{l}_{p}")));
+        }
         ints.push(IntColumn::new(format!("active_{l}"), IntWidth::U8));
         ints.push(IntColumn::new(format!("flags_{l}"), IntWidth::U16));
+        if friction {
+            ints.push(IntColumn::new(format!("sticking_{l}"), IntWidth::U8));
+            ints.push(IntColumn::new(format!("friction_flags_{l}"), IntWidth::U8));
+        }
     }
     (f, ints)
 }
 
 /// Appends a block's rows (after recomputation) in the order of
-/// [`sample_columns`], column by column.
+/// [`sample_columns`], column by column (`friction`: the scene's friction
+/// columns are there).
 pub fn push_rows<T: Real, const N: usize>(
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
     outs: &[Box<LawOut<T, N>>],
-    first: u64,
-    count: usize,
+    (first, count): (u64, usize),
+    friction: bool,
     rows: &mut SampleRows,
 ) {
     rows.index.extend(first..first + count as u64);
@@ -405,6 +424,11 @@ pub fn push_rows<T: Real, const N: usize>(
         for c in out.lambda.iter().chain(&out.vn_after) {
             cols.put(lane(c, count));
         }
+        if friction {
+            for c in out.tangential.iter().chain(&out.sliding) {
+                cols.put(lane(c, count));
+            }
+        }
     }
     let mut ints = rows.ints.iter_mut();
     for out in outs {
@@ -415,9 +439,24 @@ pub fn push_rows<T: Real, const N: usize>(
                 .iter()
                 .map(|st| ((st >> ACTIVE_SHIFT) & ((1 << N) - 1)) as u16),
         );
-        // Status bits end at bit 14: a u16 holds them.
+        // Bits 0–14 (a u16 holds them); the friction bits above have their
+        // own columns.
         let flags = ints.next().expect("column count");
         flags.extend(status.iter().map(|&st| st as u16));
+        if friction {
+            let sticking = ints.next().expect("column count");
+            sticking.extend(
+                status
+                    .iter()
+                    .map(|st| ((st >> STICKING_SHIFT) & ((1 << N) - 1)) as u16),
+            );
+            let friction_flags = ints.next().expect("column count");
+            friction_flags.extend(
+                status.iter().map(|&st| {
+                    (st & AMBIGUOUS != 0) as u16 | (((st & UNCONVERGED != 0) as u16) << 1)
+                }),
+            );
+        }
     }
 }
 

@@ -282,7 +282,11 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         cis.insert(name.into(), json(&ci));
     }
     if let Some(fr) = &acc.friction {
-        for (name, k) in [("ambiguous", fr.ambiguous), ("unconverged", fr.unconverged)] {
+        for (name, k) in [
+            ("ambiguous", fr.ambiguous),
+            ("unconverged", fr.unconverged),
+            ("coupled_fallback", fr.coupled_fallback),
+        ] {
             let (p, ci) = proportion(k, acc.samples);
             fractions.insert(name.into(), json(&p));
             cis.insert(name.into(), json(&ci));
@@ -490,10 +494,11 @@ impl Summary {
                     .collect();
                 let _ = writeln!(
                     s,
-                    "  friction: active contacts ending stuck: {}; ambiguous {:.2e}, unconverged {:.2e}",
+                    "  friction: active contacts ending stuck: {}; ambiguous {:.2e}, unconverged {:.2e}, coupled_fallback {:.2e}",
                     sticking.join(", "),
                     frac("ambiguous"),
-                    frac("unconverged")
+                    frac("unconverged"),
+                    frac("coupled_fallback")
                 );
             }
             if let Some(d) = self.drops.get(law) {

@@ -34,6 +34,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::friction::skew;
 use super::{kinetic_energy, ContactGeometry, Ellipsoid, Plane, Pose, State};
 
 /// Knobs of a compliant integration.
@@ -284,14 +285,6 @@ impl Rough {
     fn velocity(&self, v: DVec3, w: DVec3) -> DVec3 {
         self.p * v + self.k * w
     }
-}
-
-fn skew(x: DVec3) -> DMat3 {
-    DMat3::from_cols(
-        DVec3::new(0.0, x.z, -x.y),
-        DVec3::new(-x.z, 0.0, x.x),
-        DVec3::new(x.y, -x.x, 0.0),
-    )
 }
 
 /// The friction impulse of one contact alone, by backward Euler: the

@@ -9,10 +9,19 @@
 
 use glam::{DMat3, DVec3};
 
-use super::Ellipsoid;
+use super::{Ellipsoid, State};
+
+/// friction.md's sticking threshold: a contact with an impulse ends
+/// sticking when `|c⁺_t| ≤` this, 1e-9 of the larger velocity scale
+/// `|v| + L|ω|` of before and after.
+pub fn sticking_threshold(body: &Ellipsoid, before: &State, after: &State) -> f64 {
+    let l = body.length_scale();
+    1e-9 * (before.velocity.length() + l * before.omega.length())
+        .max(after.velocity.length() + l * after.omega.length())
+}
 
 /// `[x]×`, the cross-product matrix: `[x]× y = x × y`.
-fn skew(x: DVec3) -> DMat3 {
+pub(crate) fn skew(x: DVec3) -> DMat3 {
     DMat3::from_cols(
         DVec3::new(0.0, x.z, -x.y),
         DVec3::new(-x.z, 0.0, x.x),

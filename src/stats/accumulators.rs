@@ -54,6 +54,9 @@ pub struct FrictionAcc {
     /// where neither Gauss–Seidel converged.
     pub ambiguous: u64,
     pub unconverged: u64,
+    /// Impacts that touched several planes at once under `stronge` (a drop
+    /// scene's first impact), solved by `newton` instead.
+    pub coupled_fallback: u64,
     /// Per touching plane, over impacting samples (zeros included): |f|.
     pub tangential_impulse: Vec<Stat>,
     /// Per touching plane, over its active contacts (λ > 0): `|c⁺_t|`.
@@ -102,7 +105,8 @@ pub struct Shape {
     pub contacts: usize,
     /// `effects.bounces` of a drop scene; 0 for a contact scene.
     pub bounces: usize,
-    /// Friction statistics are kept (a contact scene with friction).
+    /// Friction statistics are kept (a scene with friction; a drop scene
+    /// keeps them of its first impact).
     pub friction: bool,
 }
 
@@ -117,7 +121,7 @@ impl Shape {
             } else {
                 0
             },
-            friction: !drop && scene.effects().friction,
+            friction: scene.effects().friction,
         }
     }
 }
@@ -294,6 +298,10 @@ impl RunAcc {
                 f(
                     &|| format!("{}.unconverged", friction()),
                     Slot::Count(&mut fr.unconverged),
+                );
+                f(
+                    &|| format!("{}.coupled_fallback", friction()),
+                    Slot::Count(&mut fr.coupled_fallback),
                 );
                 for (i, s) in fr.tangential_impulse.iter_mut().enumerate() {
                     stat(f, &|| format!("{}.tangential_impulse.{i}", friction()), s);
