@@ -326,3 +326,75 @@ fn flight_rungs_converge_with_step_and_tolerance() {
     assert!(tols.windows(2).all(|w| w[1] < w[0]), "{tols:?}");
     assert!(tols[0] > 1e-6 && tols[2] < 1e-6, "{tols:?}");
 }
+
+/// With one frictional contact the ladder has `stronge` as a rung and as a
+/// second rigid reference (`*_vs_stronge`), no `poisson` (not defined with
+/// friction), and compliant rungs with regularised Coulomb; `stronge`
+/// agrees with itself and differs from `newton`.
+#[test]
+fn friction_ladder_has_stronge_and_no_poisson() {
+    let d = scratch("accuracy-friction");
+    std::fs::create_dir_all(&d).unwrap();
+    let text = std::fs::read_to_string(repo("configs/floor_friction.toml")).unwrap();
+    let small = format!(
+        "{text}\n[accuracy]\nsamples = 40\ncompliant_steps = [12, 25]\nreference_steps = 100\npgs_sweeps = [1]\nsample_counts = [1000]\ntiming_samples = 2000\nfriction_regularisation = 1e-6\n"
+    );
+    let scene = d.join("acc.toml");
+    std::fs::write(&scene, &small).unwrap();
+    let out = bin()
+        .arg("accuracy")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.join("out"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("| stronge |") && stdout.contains("vs stronge"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("regularised Coulomb"), "{stdout}");
+    assert!(!stdout.contains("| poisson |"), "{stdout}");
+    let df = polars::prelude::ParquetReader::new(
+        std::fs::File::open(d.join("out/accuracy.parquet")).unwrap(),
+    )
+    .finish()
+    .unwrap();
+    let rung = df.column("rung").unwrap().str().unwrap();
+    let vs = df.column("v_after_rms_vs_stronge").unwrap().f64().unwrap();
+    let at = |name: &str| {
+        (0..df.height())
+            .find(|&i| rung.get(i) == Some(name))
+            .and_then(|i| vs.get(i))
+            .unwrap_or_else(|| panic!("{name}: no error vs stronge"))
+    };
+    assert_eq!(at("stronge"), 0.0);
+    assert!(
+        at("newton") > 1e-3,
+        "newton and stronge differ with friction"
+    );
+    assert!(at("compliant12").is_finite());
+    let bad = small.replace(
+        "friction_regularisation = 1e-6",
+        "friction_regularisation = -1",
+    );
+    std::fs::write(&scene, bad).unwrap();
+    let out = bin()
+        .arg("accuracy")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.join("out2"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("accuracy.friction_regularisation") && err.contains("-1"),
+        "{err}"
+    );
+}

@@ -45,6 +45,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
         ("corner3_sphere", false, false, false, "none", 1, "closed-form", None),
         ("sweep_aspect_ratio", true, false, false, "none", 1, "rotation", None),
         ("accuracy_corner3", true, true, false, "none", 1, "rotation+lcp", None),
+        ("accuracy_corner3_friction", true, true, false, "none", 1, "friction", None),
         ("drop_corner", true, true, true, "elliptic", 5, "rotation+lcp", None),
         ("drop_dice", true, false, true, "elliptic", 20, "rotation", None),
         ("drop_dice_frictionless", true, false, true, "elliptic", 20, "rotation", None),
@@ -69,7 +70,10 @@ fn derived_effect_sets_of_the_shipped_scenes() {
         let e = s.effects();
         assert_eq!(
             e.friction,
-            matches!(name, "floor_friction" | "drop_dice"),
+            matches!(
+                name,
+                "floor_friction" | "drop_dice" | "accuracy_corner3_friction"
+            ),
             "{name}: friction"
         );
         assert_eq!(
