@@ -170,6 +170,45 @@ fn specialised_kernels_match_the_all_effects_kernel_per_sample() {
     }
 }
 
+/// `--keep friction`: the frictional kernel on frictionless scenes gives
+/// the frictionless answers (rounding; with several contacts `newton` is
+/// Gauss–Seidel to its stopping rule, 1e-13 of `m(|v| + L|ω|)` in f64 and
+/// 2e-6 in f32), and is the kernel that runs.
+#[test]
+fn kept_friction_gives_the_frictionless_answers() {
+    let keep: Keep = "friction".parse().unwrap();
+    let kept = |s: &Scene| KernelVariant::of(s, keep);
+    for precision in ["f64", "f32"] {
+        let tol = if precision == "f64" { 1e-10 } else { 1e-4 };
+        for (name, s, _) in scenes(precision) {
+            assert_eq!(kept(&s).name(), "friction", "{name}");
+            let scale = 10.0;
+            for law in [Law::Newton, Law::Paper, Law::Pgs { sweeps: 8 }] {
+                let fast = evaluate_samples(&s, law, 0, 1500);
+                let rough = evaluate_samples_with(&s, law, 0, 1500, kept(&s));
+                let mut worst = 0f64;
+                for (a, b) in fast.iter().zip(&rough) {
+                    assert_eq!(a.velocity, b.velocity, "{name}: the draws differ");
+                    for k in 0..3 {
+                        worst = worst
+                            .max((a.velocity_after[k] - b.velocity_after[k]).abs())
+                            .max((a.omega_after[k] - b.omega_after[k]).abs());
+                    }
+                    for (x, y) in a.impulses.iter().zip(&b.impulses) {
+                        worst = worst.max((x - y).abs() / s.body().mass());
+                    }
+                    assert!(b.tangential.iter().all(|&f| f == 0.0), "{name}");
+                }
+                assert!(
+                    worst < tol * scale,
+                    "{name} {precision} {}: kept friction differs by {worst:e}",
+                    law.name()
+                );
+            }
+        }
+    }
+}
+
 /// A vector drawn alone takes only its own Box–Muller pairs: the inputs
 /// must still be the reference sampler's.
 #[test]

@@ -61,8 +61,9 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
     /// Keep computing effects the scene does not need: rotation, lcp,
-    /// statistics or all (comma-separated or repeated). Same answers,
-    /// slower: for measuring what compiling an effect out saves.
+    /// statistics, friction or all (comma-separated or repeated; all is
+    /// every effect but friction). Same answers, slower: for measuring what
+    /// compiling an effect out saves.
     #[arg(long, value_delimiter = ',')]
     keep: Vec<Keep>,
     /// Same as `--keep all`.

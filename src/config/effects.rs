@@ -379,6 +379,12 @@ pub struct Keep {
     pub lcp: bool,
     /// Every statistic: all quantiles and the per-set groups.
     pub statistics: bool,
+    /// The frictional kernel, also where every μ is zero (it then gives
+    /// the frictionless laws' answers; the friction statistics stay off).
+    /// Not part of `all`: the frictional kernel solves `newton` with
+    /// several contacts by Gauss–Seidel, to its stopping rule rather than
+    /// exactly.
+    pub friction: bool,
 }
 
 impl Keep {
@@ -386,11 +392,14 @@ impl Keep {
         rotation: false,
         lcp: false,
         statistics: false,
+        friction: false,
     };
+    /// Every frictionless effect (rotation, the LCP, every statistic).
     pub const ALL: Self = Self {
         rotation: true,
         lcp: true,
         statistics: true,
+        friction: false,
     };
 
     /// Both sets of effects.
@@ -399,6 +408,7 @@ impl Keep {
             rotation: self.rotation || o.rotation,
             lcp: self.lcp || o.lcp,
             statistics: self.statistics || o.statistics,
+            friction: self.friction || o.friction,
         }
     }
 }
@@ -406,17 +416,19 @@ impl Keep {
 impl std::str::FromStr for Keep {
     type Err = String;
 
-    /// Parses one effect: `rotation`, `lcp`, `statistics` or `all`.
+    /// Parses one effect: `rotation`, `lcp`, `statistics`, `friction` or
+    /// `all` (every frictionless effect).
     fn from_str(name: &str) -> Result<Self, String> {
         let mut k = Self::NONE;
         match name {
             "rotation" => k.rotation = true,
             "lcp" => k.lcp = true,
             "statistics" => k.statistics = true,
+            "friction" => k.friction = true,
             "all" => k = Self::ALL,
             other => {
                 return Err(format!(
-                    "unknown effect {other:?} (expected rotation, lcp, statistics or all)"
+                    "unknown effect {other:?} (expected rotation, lcp, statistics, friction or all)"
                 ))
             }
         }

@@ -38,10 +38,11 @@ pub struct SampleOutcome {
 fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     scene: &Scene,
     law: Law,
-    first: u64,
-    count: usize,
+    (first, count): (u64, usize),
+    friction: bool,
 ) -> Vec<SampleOutcome> {
-    let consts = Consts::<T, N>::new(scene);
+    let mut consts = Consts::<T, N>::new(scene);
+    consts.fr.on = friction;
     let sampler = Sampler::new(scene);
     let mut work = Work::<T, N>::new(1);
     let mut out = Vec::with_capacity(count);
@@ -108,5 +109,9 @@ pub fn evaluate_samples_with(
     count: usize,
     variant: KernelVariant,
 ) -> Vec<SampleOutcome> {
-    with_kernel!(scene, variant, evaluate_typed(scene, law, first, count))
+    with_kernel!(
+        scene,
+        variant,
+        evaluate_typed(scene, law, (first, count), variant.friction)
+    )
 }

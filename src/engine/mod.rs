@@ -89,19 +89,21 @@ pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
 
 fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
     scene: &Scene,
-    plan: StatsPlan,
+    (plan, friction): (StatsPlan, bool),
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
-    let consts = Consts::<T, N>::new(scene);
+    // The frictional kernel runs when the variant has friction: a scene
+    // with friction, or `--keep friction`.
+    let mut consts = Consts::<T, N>::new(scene);
+    consts.fr.on = friction;
     // Orientations feed the rotational terms and the per-sample rows only,
     // and the kernel reads only the rows of A its planes need; per-sample
     // rows and planes outside the placement read the whole matrix.
     // The frictional kernel's contact frames read the whole orientation
     // (a sphere's ω turns by friction too).
-    let friction = scene.effects().friction;
     let whole = sink.is_some() || scene.planes().len() > N || friction;
     let sampler = Sampler::new(scene)
         .with_orientation(ROT || sink.is_some() || friction)
@@ -309,7 +311,11 @@ pub fn run_with_samples(
             if scene.drop_box().is_some() {
                 run_drops(scene, opts.keep, r, &bar, sink, rows)
             } else {
-                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
+                with_kernel!(
+                    scene,
+                    variant,
+                    run_typed(scene, (plan, variant.friction), r, &bar, sink, rows)
+                )
             }
         })
         .map_err(RunError::Sink)?;

@@ -24,7 +24,7 @@ impl KernelVariant {
         let e = scene.effects();
         // A drop scene's bounces are solved by the reference: its friction
         // does not reach the lane kernel.
-        let friction = e.friction && scene.drop_box().is_none();
+        let friction = (e.friction || keep.friction) && scene.drop_box().is_none();
         Self {
             rotational_coupling: friction || keep.rotation || e.rotational_coupling,
             coupled_contacts: friction || keep.lcp || e.coupled_contacts,
