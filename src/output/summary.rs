@@ -359,14 +359,35 @@ impl Summary {
             let by_set = scene.effects().statistics.by_active_set;
             laws.insert(law.name(), json(&law_summary(acc, &contacts, by_set)));
         }
+        // The samples the accumulators hold: the scene's count, except for
+        // a shard's share or a partial merge.
+        let samples = result.acc.laws.first().map_or(0, |l| l.samples);
         let mut paired = Map::new();
         let first = scene.laws()[0].name();
         for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
-            let m = headline(
+            let mut m = headline(
                 StatSummary::from_moments(&p.energy_ratio),
                 StatSummary::from_moments(&p.omega_after_norm),
                 StatSummary::from_moments(&p.velocity_after_norm),
             );
+            // Contact scenes: the fraction of samples where one law of the
+            // pair raises energy_gain and the other does not.
+            if result.acc.drops.is_empty() {
+                let (mut only, mut cis) = (Map::new(), Map::new());
+                for (name, k) in [
+                    (law.name(), p.energy_gain_only),
+                    (first.clone(), p.first_energy_gain_only),
+                ] {
+                    let (f, ci) = proportion(k, samples);
+                    only.insert(name.clone(), json(&f));
+                    cis.insert(name, json(&ci));
+                }
+                m.insert("energy_gain_only".into(), serde_json::Value::Object(only));
+                m.insert(
+                    "energy_gain_only_ci95".into(),
+                    serde_json::Value::Object(cis),
+                );
+            }
             paired.insert(
                 format!("{}-{first}", law.name()),
                 serde_json::Value::Object(m),
@@ -376,9 +397,6 @@ impl Summary {
         for (law, acc) in scene.laws().iter().zip(&result.acc.drops) {
             drops.insert(law.name(), drop_summary(acc, &contacts));
         }
-        // The samples the accumulators hold: the scene's count, except for
-        // a shard's share or a partial merge.
-        let samples = result.acc.laws.first().map_or(0, |l| l.samples);
         // Drop scenes run the f64 reference per sample.
         let precision = if drops.is_empty() {
             scene.precision().name()
@@ -510,11 +528,21 @@ impl Summary {
                 .get("energy_ratio")
                 .and_then(|x| serde_json::from_value::<StatSummary>(x.clone()).ok())
             {
-                let _ = writeln!(
+                let _ = write!(
                     s,
                     "\npaired {pair}: energy_ratio difference {:.6} ± {:.2e} (sd {:.4}, n {})",
                     er.mean, er.ci95, er.sd, er.n
                 );
+                if let Some(only) = v.get("energy_gain_only").and_then(|x| x.as_object()) {
+                    let parts: Vec<String> = only
+                        .iter()
+                        .map(|(law, f)| {
+                            format!("{law} only {:.2e}", f.as_f64().unwrap_or(f64::NAN))
+                        })
+                        .collect();
+                    let _ = write!(s, "; energy_gain in {}", parts.join(", "));
+                }
+                let _ = writeln!(s);
             }
         }
         s

@@ -84,6 +84,11 @@ pub struct PairAcc {
     pub energy_ratio: Moments,
     pub omega_after_norm: Moments,
     pub velocity_after_norm: Moments,
+    /// Contact scenes: samples where this law raises `energy_gain` and
+    /// laws[0] does not, and the other way round (with friction, how often
+    /// `newton` commits Kane's paradox where `stronge` does not).
+    pub energy_gain_only: u64,
+    pub first_energy_gain_only: u64,
 }
 
 #[derive(Debug, Clone)]
@@ -345,6 +350,14 @@ impl RunAcc {
             for (name, m) in headline {
                 f(&|| format!("pair{}.{name}", pi + 1), Slot::Moments(m));
             }
+            f(
+                &|| format!("pair{}.energy_gain_only", pi + 1),
+                Slot::Count(&mut pa.energy_gain_only),
+            );
+            f(
+                &|| format!("pair{}.first_energy_gain_only", pi + 1),
+                Slot::Count(&mut pa.first_energy_gain_only),
+            );
         }
         for (li, d) in self.drops.iter_mut().enumerate() {
             d.walk(&|| format!("drop{li}"), f);

@@ -340,6 +340,12 @@ fn block_stats_lanes<T: Real, const N: usize>(
                 both += (d.mask[s] > T::ZERO) as u32;
             }
             let p = &mut acc.pairs[li - 1];
+            let gains = |o: &LawOut<T, N>, s: usize| o.status[s] & ENERGY_GAIN != 0;
+            for s in 0..count {
+                let (this, base) = (gains(out, s), gains(&outs[0], s));
+                p.energy_gain_only += (this && !base) as u64;
+                p.first_energy_gain_only += (base && !this) as u64;
+            }
             for (k, (target, a, b)) in [
                 (&mut p.energy_ratio, &d.ratio, &f.ratio),
                 (&mut p.omega_after_norm, &d.omega, &f.omega),
