@@ -27,9 +27,10 @@
 //! of the explicit RK4 step: after each step the friction impulse of the
 //! step's normal impulse is applied by backward Euler. That step minimises
 //! the strictly convex `½|u − u*|²_M + Σ μ_i Δp_i sqrt(|c_t,i(u)|² + ε²)`
-//! over the velocities `u = (v, ω)` (Newton with backtracking), so it is
-//! stable for any ε and never adds energy. The splitting is first order in
-//! the step, like the Hertz force's kinks. With every μ = 0 nothing of this
+//! over the velocities `u = (v, ω)`: each contact's impulse exactly, from
+//! one scalar equation, and Gauss–Seidel over the contacts. So it is stable
+//! for any ε and never adds energy. The splitting is first order in the
+//! step, like the Hertz force's kinks. With every μ = 0 nothing of this
 //! runs and the integration is the frictionless one, bit for bit.
 
 use glam::{DMat3, DQuat, DVec3};
