@@ -18,11 +18,15 @@ use impactmc::sampler::{Inputs, Sampler};
 const SAMPLES: u64 = 1 << 18;
 
 fn scene(name: &str, law: &str, precision: &str) -> Scene {
+    scene_of(name, law, precision, SAMPLES)
+}
+
+fn scene_of(name: &str, law: &str, precision: &str, samples: u64) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{name}.toml"));
     load_scene(
         &path,
         &Overrides {
-            samples: Some(SAMPLES),
+            samples: Some(samples),
             seed: Some(1),
             laws: Some(vec![law.into()]),
             precision: Some(precision.parse().expect("f32 or f64")),
@@ -85,6 +89,52 @@ fn effects(c: &mut Criterion) {
             };
             g.bench_function(BenchmarkId::new(name, id), |b| {
                 b.iter(|| run(&s, &opts).expect("pool"))
+            });
+        }
+    }
+    g.finish();
+}
+
+/// Friction, end to end on one thread: the frictional floor (S1, μ = 0.5)
+/// and S3 with μ = 0.3 on every wall under each lane law, and the
+/// frictionless floor and S3 through their own kernel and with the
+/// frictional kernel kept (`--keep friction`). S3 with friction under
+/// `newton` runs thousands of samples per second (Gauss–Seidel to its
+/// limit), so it takes 2¹⁰ samples. `cargo bench --bench kernel -- friction`.
+fn friction(c: &mut Criterion) {
+    let mut g = c.benchmark_group("friction");
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
+    let one = RunOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    let cases: &[(&str, &str, &str, u64)] = &[
+        ("floor_friction", "newton", "f32", SAMPLES),
+        ("floor_friction", "newton", "f64", SAMPLES),
+        ("floor_friction", "paper", "f32", SAMPLES),
+        ("accuracy_corner3_friction", "newton", "f32", 1 << 10),
+        ("accuracy_corner3_friction", "paper", "f32", 1 << 16),
+        ("accuracy_corner3_friction", "pgs8", "f32", 1 << 14),
+    ];
+    for &(name, law, precision, samples) in cases {
+        let s = scene_of(name, law, precision, samples);
+        g.throughput(Throughput::Elements(samples));
+        g.bench_function(BenchmarkId::new(format!("{name}/{law}"), precision), |b| {
+            b.iter(|| run(&s, &one).expect("pool"))
+        });
+    }
+    let kept = RunOptions {
+        keep: "friction".parse().expect("an effect"),
+        ..one.clone()
+    };
+    g.throughput(Throughput::Elements(SAMPLES));
+    for name in ["floor", "corner3"] {
+        let s = scene(name, "newton", "f32");
+        for (id, opts) in [("specialised", &one), ("friction_kept", &kept)] {
+            g.bench_function(BenchmarkId::new(name, id), |b| {
+                b.iter(|| run(&s, opts).expect("pool"))
             });
         }
     }
@@ -165,5 +215,5 @@ fn reference(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, kernel, effects, sampler, reference);
+criterion_group!(benches, kernel, effects, friction, sampler, reference);
 criterion_main!(benches);
