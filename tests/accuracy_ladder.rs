@@ -37,6 +37,36 @@ fn scale(scene: &Scene, v: DVec3, w: DVec3) -> f64 {
     v.length() + scene.body().length_scale() * w.length()
 }
 
+/// `impactmc accuracy SCENE --out OUT`.
+fn accuracy(scene: &std::path::Path, out: &std::path::Path) -> std::process::Output {
+    bin()
+        .arg("accuracy")
+        .arg(scene)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// [`accuracy`], which must succeed; its stdout (the markdown).
+fn accuracy_ok(scene: &std::path::Path, out: &std::path::Path) -> String {
+    let o = accuracy(scene, out);
+    let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
+/// The `accuracy.parquet` a ladder wrote into `out`.
+fn ladder_frame(out: &std::path::Path) -> polars::prelude::DataFrame {
+    polars::prelude::ParquetReader::new(std::fs::File::open(out.join("accuracy.parquet")).unwrap())
+        .finish()
+        .unwrap()
+}
+
 #[test]
 fn pgs_error_falls_with_sweeps_and_reaches_newton_within_64_on_s3() {
     let s = scene("corner3", "f64");
@@ -240,19 +270,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
         .join("\n");
     let scene = d.join("acc.toml");
     std::fs::write(&scene, &small).unwrap();
-    let out = bin()
-        .arg("accuracy")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.join("out"))
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = accuracy_ok(&scene, &d.join("out"));
     for rung in [
         "| paper |",
         "| pgs1 |",
@@ -269,11 +287,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
     }
     let svg = std::fs::read_to_string(d.join("out/accuracy.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
-    let df = polars::prelude::ParquetReader::new(
-        std::fs::File::open(d.join("out/accuracy.parquet")).unwrap(),
-    )
-    .finish()
-    .unwrap();
+    let df = ladder_frame(&d.join("out"));
     // 2 + 2 sweeps + newton + poisson laws, 2 compliant, f32, 2 contact point, 2 counts.
     assert_eq!(df.height(), 12, "{df}");
     // Bad knobs: one error naming the field and the value.
@@ -282,13 +296,7 @@ fn accuracy_command_writes_table_plot_and_parquet() {
         small.replace("reference_steps = 100", "reference_steps = 20"),
     )
     .unwrap();
-    let out = bin()
-        .arg("accuracy")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.join("out2"))
-        .output()
-        .unwrap();
+    let out = accuracy(&scene, &d.join("out2"));
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -341,30 +349,14 @@ fn friction_ladder_has_stronge_and_no_poisson() {
     );
     let scene = d.join("acc.toml");
     std::fs::write(&scene, &small).unwrap();
-    let out = bin()
-        .arg("accuracy")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.join("out"))
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = accuracy_ok(&scene, &d.join("out"));
     assert!(
         stdout.contains("| stronge |") && stdout.contains("vs stronge"),
         "{stdout}"
     );
     assert!(stdout.contains("regularised Coulomb"), "{stdout}");
     assert!(!stdout.contains("| poisson |"), "{stdout}");
-    let df = polars::prelude::ParquetReader::new(
-        std::fs::File::open(d.join("out/accuracy.parquet")).unwrap(),
-    )
-    .finish()
-    .unwrap();
+    let df = ladder_frame(&d.join("out"));
     let rung = df.column("rung").unwrap().str().unwrap();
     let vs = df.column("v_after_rms_vs_stronge").unwrap().f64().unwrap();
     let at = |name: &str| {
@@ -384,13 +376,7 @@ fn friction_ladder_has_stronge_and_no_poisson() {
         "friction_regularisation = -1",
     );
     std::fs::write(&scene, bad).unwrap();
-    let out = bin()
-        .arg("accuracy")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.join("out2"))
-        .output()
-        .unwrap();
+    let out = accuracy(&scene, &d.join("out2"));
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -87,17 +87,9 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             e.v_rms
         ));
         rungs.push(Rung {
-            family: "flight_step".into(),
-            rung: format!("rk4 step {step:e} s"),
-            precision: "f64".into(),
-            ns_per_sample: ns,
-            vs_compliant: Errors::NONE,
-            vs_newton: Errors::NONE,
-            vs_stronge: None,
-            unseparated: None,
-            point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
+            ..Rung::new("flight_step", &format!("rk4 step {step:e} s"), "f64", ns)
         });
     }
     for &tol in &knobs.toi_tolerances {
@@ -108,17 +100,14 @@ pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)
             e.v_rms
         ));
         rungs.push(Rung {
-            family: "toi_tolerance".into(),
-            rung: format!("{} toi {tol:e} m", exact.name()),
-            precision: "f64".into(),
-            ns_per_sample: ns,
-            vs_compliant: Errors::NONE,
-            vs_newton: Errors::NONE,
-            vs_stronge: None,
-            unseparated: None,
-            point_error: None,
             vs_flight_reference: Some(e),
             time_error: Some(t),
+            ..Rung::new(
+                "toi_tolerance",
+                &format!("{} toi {tol:e} m", exact.name()),
+                "f64",
+                ns,
+            )
         });
     }
     Ladder {

@@ -62,22 +62,6 @@ fn timed_run(
 /// Wall-time budget of one rung's timing run (s).
 const TIMING_BUDGET_S: f64 = 5.0;
 
-fn rung(family: &str, name: &str, precision: &str, ns: f64) -> Rung {
-    Rung {
-        family: family.into(),
-        rung: name.into(),
-        precision: precision.into(),
-        ns_per_sample: ns,
-        vs_compliant: Errors::NONE,
-        vs_newton: Errors::NONE,
-        vs_stronge: None,
-        unseparated: None,
-        point_error: None,
-        vs_flight_reference: None,
-        time_error: None,
-    }
-}
-
 /// Runs the ladder on the scene at `path` (its `[accuracy]` and
 /// `[material]` knobs). `progress` receives one line per rung.
 ///
@@ -160,7 +144,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             .collect();
         let ns = timed_run(path, name, Precision::F64, &knobs)?;
         progress(&format!("law {name}: {ns:.1} ns/sample"));
-        rungs.push(judged(rung("law", name, "f64", ns), &posts));
+        rungs.push(judged(Rung::new("law", name, "f64", ns), &posts));
     }
     for &steps in &knobs.compliant_steps {
         let (posts, ns, unseparated) = compliant_posts(&newton64, &inputs, knobs.compliant(steps));
@@ -170,7 +154,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         rungs.push(judged(
             Rung {
                 unseparated: Some(unseparated as f64 / n as f64),
-                ..rung("compliant", &format!("compliant{steps}"), "f64", ns)
+                ..Rung::new("compliant", &format!("compliant{steps}"), "f64", ns)
             },
             &posts,
         ));
@@ -183,7 +167,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
             .collect();
         let ns = timed_run(path, "newton", Precision::F32, &knobs)?;
         progress(&format!("newton f32: {ns:.1} ns/sample"));
-        rungs.push(judged(rung("precision", "newton", "f32", ns), &posts));
+        rungs.push(judged(Rung::new("precision", "newton", "f32", ns), &posts));
     }
     rungs.extend(contact_point_rungs(&newton64, &inputs));
 
@@ -256,11 +240,11 @@ pub fn contact_point_rungs(scene: &Scene, inputs: &[(Pose, State)]) -> Vec<Rung>
     vec![
         Rung {
             point_error: Some((0.0, 0.0)),
-            ..rung("contact_point", "closed_form", "f64", closed)
+            ..Rung::new("contact_point", "closed_form", "f64", closed)
         },
         Rung {
             point_error: Some((rms, p99)),
-            ..rung("contact_point", "lagrange", "f64", lagrange)
+            ..Rung::new("contact_point", "lagrange", "f64", lagrange)
         },
     ]
 }

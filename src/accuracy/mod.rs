@@ -347,6 +347,26 @@ pub struct Rung {
     pub time_error: Option<(f64, f64)>,
 }
 
+impl Rung {
+    /// A rung of `family` with its cost and no errors yet (each family
+    /// fills the ones that apply).
+    pub fn new(family: &str, rung: &str, precision: &str, ns_per_sample: f64) -> Self {
+        Rung {
+            family: family.into(),
+            rung: rung.into(),
+            precision: precision.into(),
+            ns_per_sample,
+            vs_compliant: Errors::NONE,
+            vs_newton: Errors::NONE,
+            vs_stronge: None,
+            unseparated: None,
+            point_error: None,
+            vs_flight_reference: None,
+            time_error: None,
+        }
+    }
+}
+
 /// One point of the sample-count rung.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CountRow {
