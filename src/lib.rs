@@ -1,14 +1,16 @@
-//! impactmc: Monte Carlo statistics of frictionless impacts of a rigid
-//! ellipsoid on one or several planes.
+//! impactmc: Monte Carlo statistics of impacts of a rigid ellipsoid on one
+//! or several planes, each with its own restitution and Coulomb friction.
 //!
 //! Data flows one way, and the modules follow it: [`config`] (raw TOML →
 //! validated scene) → [`sampler`] (counter-based draws in SoA blocks) →
 //! [`kernel`] (contacts and impulses in lanes) → [`stats`] (mergeable
 //! accumulators) → [`output`] (summaries, Parquet, run folders). [`engine`]
-//! runs the batches of that flow in parallel; [`study`] is the one entry
-//! point that chooses the engine for a scene. [`physics`] is the pure f64
-//! reference every fast path is tested against; [`lanes`] holds the lane
-//! types and their SIMD dispatch.
+//! runs the batches of that flow in parallel, for contact and drop scenes
+//! alike; [`study`] runs every grid point of a scene file through it and
+//! writes the run folder. [`physics`] is the pure f64
+//! reference every fast path is tested against (its definitions are
+//! `docs/spec/physics.md` and `docs/spec/friction.md`); [`lanes`] holds the
+//! lane types and their SIMD dispatch.
 
 #![deny(unsafe_code)]
 

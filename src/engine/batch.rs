@@ -51,11 +51,17 @@ impl<T: Real, const N: usize> Work<T, N> {
 multiversioned! {
     /// The vectorised part of a block: draws, geometry, impulses and post
     /// quantities for every law. Compiled for AVX-512, AVX2+FMA and the
-    /// baseline; the best the CPU has is chosen at run time. A scene with
-    /// friction runs the frictional kernel (its variant is always the
-    /// rotational, coupled one).
+    /// baseline; the best the CPU has is chosen at run time. The frictional
+    /// variant (`FR`, always with `ROT` and `CPL`) runs the frictional
+    /// passes instead of the frictionless ones.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn block_lanes<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+    pub(crate) fn block_lanes<
+        T: Real,
+        const N: usize,
+        const ROT: bool,
+        const CPL: bool,
+        const FR: bool,
+    >(
         consts: &Consts<T, N>,
         sampler: &Sampler,
         laws: &[Law],
@@ -68,7 +74,7 @@ multiversioned! {
     ) {
         crate::lanes::dispatch::align_frame();
         sampler.fill(first, inputs);
-        if ROT && CPL && consts.fr.on {
+        if FR {
             friction_frame::<T, N>(consts, inputs, fr, geo);
             for (law, out) in laws.iter().zip(outs.iter_mut()) {
                 friction_law::<T, N>(consts, *law, inputs, geo, fr, sweep, out);
@@ -152,7 +158,13 @@ pub(crate) struct Ctx<'a, T, const N: usize> {
     pub(crate) plan: StatsPlan,
 }
 
-pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+pub(crate) fn run_block<
+    T: Real,
+    const N: usize,
+    const ROT: bool,
+    const CPL: bool,
+    const FR: bool,
+>(
     ctx: &Ctx<T, N>,
     first: u64,
     count: usize,
@@ -167,7 +179,7 @@ pub(crate) fn run_block<T: Real, const N: usize, const ROT: bool, const CPL: boo
         ..
     } = *ctx;
     let laws = scene.laws();
-    block_lanes::<T, N, ROT, CPL>(
+    block_lanes::<T, N, ROT, CPL, FR>(
         consts,
         sampler,
         laws,

@@ -35,21 +35,19 @@ pub struct SampleOutcome {
     pub status: u32,
 }
 
-fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR: bool>(
     scene: &Scene,
     law: Law,
     (first, count): (u64, usize),
-    friction: bool,
 ) -> Vec<SampleOutcome> {
-    let mut consts = Consts::<T, N>::new(scene);
-    consts.fr.on = friction;
+    let consts = Consts::<T, N>::new(scene);
     let sampler = Sampler::new(scene);
     let mut work = Work::<T, N>::new(1);
     let mut out = Vec::with_capacity(count);
     let mut start = first;
     while out.len() < count {
         let n = (count - out.len()).min(BLOCK);
-        block_lanes::<T, N, ROT, CPL>(
+        block_lanes::<T, N, ROT, CPL, FR>(
             &consts,
             &sampler,
             &[law],
@@ -112,6 +110,6 @@ pub fn evaluate_samples_with(
     with_kernel!(
         scene,
         variant,
-        evaluate_typed(scene, law, (first, count), variant.friction)
+        evaluate_typed(scene, law, (first, count))
     )
 }

@@ -33,18 +33,26 @@ use crate::stats::block::StatsPlan;
 use crate::stats::tree::{aligned_nodes, reduce_tree, Node, Shard, TreeStack};
 use crate::stats::RunResult;
 
-/// Calls `f::<T, N, ROT, CPL>(args)` for a scene's precision, contact count
-/// and kernel variant.
+/// Calls `f::<T, N, ROT, CPL, FR>(args)` for a scene's precision, contact
+/// count and kernel variant: the one place where the variant becomes types.
+/// The frictional variant has the lever arms and the coupling (`ROT` and
+/// `CPL` true).
 macro_rules! with_kernel {
     ($scene:expr, $variant:expr, $f:ident($($arg:expr),*)) => {{
-        let v: KernelVariant = $variant;
+        use $crate::kernel::KernelVariant as V;
+        let v: V = $variant;
         macro_rules! by_variant {
             ($t:ty, $n:literal) => {
-                match (v.rotational_coupling, v.coupled_contacts) {
-                    (true, true) => $f::<$t, $n, true, true>($($arg),*),
-                    (true, false) => $f::<$t, $n, true, false>($($arg),*),
-                    (false, true) => $f::<$t, $n, false, true>($($arg),*),
-                    (false, false) => $f::<$t, $n, false, false>($($arg),*),
+                match v {
+                    V::Frictional => $f::<$t, $n, true, true, true>($($arg),*),
+                    V::Frictionless { rotational_coupling, coupled_contacts } => {
+                        match (rotational_coupling, coupled_contacts) {
+                            (true, true) => $f::<$t, $n, true, true, false>($($arg),*),
+                            (true, false) => $f::<$t, $n, true, false, false>($($arg),*),
+                            (false, true) => $f::<$t, $n, false, true, false>($($arg),*),
+                            (false, false) => $f::<$t, $n, false, false, false>($($arg),*),
+                        }
+                    }
                 }
             };
         }
@@ -87,26 +95,23 @@ pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), SinkError> + Send 
 /// Why a [`SampleSink`] refused rows (kept as the source of [`RunError::Sink`]).
 pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
 
-fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
+fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR: bool>(
     scene: &Scene,
-    (plan, friction): (StatsPlan, bool),
+    plan: StatsPlan,
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
-    // The frictional kernel runs when the variant has friction: a scene
-    // with friction, or `--keep friction`.
-    let mut consts = Consts::<T, N>::new(scene);
-    consts.fr.on = friction;
+    let consts = Consts::<T, N>::new(scene);
     // Orientations feed the rotational terms and the per-sample rows only,
     // and the kernel reads only the rows of A its planes need; per-sample
     // rows and planes outside the placement read the whole matrix.
     // The frictional kernel's contact frames read the whole orientation
     // (a sphere's ω turns by friction too).
-    let whole = sink.is_some() || scene.planes().len() > N || friction;
+    let whole = sink.is_some() || scene.planes().len() > N || FR;
     let sampler = Sampler::new(scene)
-        .with_orientation(ROT || sink.is_some() || friction)
+        .with_orientation(ROT || sink.is_some() || FR)
         .with_matrix_rows(if whole {
             ALL_ROWS
         } else {
@@ -138,7 +143,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
         let mut first = lo;
         while first < hi {
             let count = ((hi - first) as usize).min(BLOCK);
-            run_block::<T, N, ROT, CPL>(&ctx, first, count, &mut work, &mut part, rows.as_mut());
+            run_block::<T, N, ROT, CPL, FR>(&ctx, first, count, &mut work, &mut part, rows.as_mut());
             first += BLOCK as u64;
         }
         part.flush();
@@ -314,7 +319,7 @@ pub fn run_with_samples(
                 with_kernel!(
                     scene,
                     variant,
-                    run_typed(scene, (plan, variant.friction), r, &bar, sink, rows)
+                    run_typed(scene, plan, r, &bar, sink, rows)
                 )
             }
         })

@@ -7,14 +7,12 @@
 
 use glam::DMat3;
 
-#[allow(unused_imports)]
-use super::geometry::*;
-#[allow(unused_imports)]
-use super::impulses::*;
-#[allow(unused_imports)]
-use super::lcp::*;
-use crate::kernel::*;
 use crate::lanes::Real;
+use crate::config::Scene;
+use crate::kernel::{ACTIVE_SHIFT, AMBIGUOUS, APPROACHING_SHIFT, DEGENERATE, ENERGY_GAIN, Geometry, JAMMED, LawOut, PENETRATING, RECOMPUTE, RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED, bit};
+use crate::physics::{Law, Pose, State, solve_impact};
+use crate::sampler::Inputs;
+use glam::DVec3;
 
 /// Marks lanes where a plane outside the placement touches or is penetrated
 /// (the f64 reference then decides). Scalar, and skipped entirely when every

@@ -5,15 +5,10 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-#[allow(unused_imports)]
-use super::fallback::*;
-#[allow(unused_imports)]
-use super::impulses::*;
-#[allow(unused_imports)]
-use super::lcp::*;
-use crate::kernel::*;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
+use crate::kernel::{APPROACHING_SHIFT, Consts, Geometry, RECOMPUTE, bit};
+use crate::sampler::Inputs;
 
 /// G_ij of lane s: per lane with rotational coupling, else the constant
 /// `nn / m` (ρ = 0), which the geometry pass then never writes.

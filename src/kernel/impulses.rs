@@ -5,15 +5,13 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-#[allow(unused_imports)]
-use super::fallback::*;
-#[allow(unused_imports)]
-use super::geometry::*;
-#[allow(unused_imports)]
-use super::lcp::*;
-use crate::kernel::*;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
+use crate::kernel::{ACTIVE_SHIFT, Consts, ENERGY_GAIN, Geometry, LawOut, RECOMPUTE, bit};
+use crate::kernel::geometry::{dot3, g_at};
+use crate::kernel::lcp::{lane_g, lcp_block, lcp_lanes};
+use crate::physics::Law;
+use crate::sampler::Inputs;
 
 /// Impulse pass for the exact laws and the paper's law.
 ///

@@ -31,13 +31,9 @@ mod impulses;
 mod lcp;
 mod variant;
 
-use glam::DVec3;
-
 use crate::config::Scene;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::{solve_impact, Law, Pose, State};
-use crate::sampler::Inputs;
 
 pub use fallback::{check_extra_planes, recompute};
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
@@ -220,12 +216,13 @@ impl<T: Real, const N: usize> LawOut<T, N> {
 
 #[cfg(test)]
 mod tests {
-    use super::geometry::*;
-    use super::lcp::*;
+    use super::geometry::{geometry, well_conditioned};
+    use super::lcp::{full_support, lane_g, lcp_block, lcp_lane};
     use super::*;
     use crate::config::{load_scene, Overrides};
     use crate::lanes::dispatch::BLOCK;
     use crate::sampler::rng::mix64;
+    use crate::sampler::Inputs;
 
     fn consts<T: Real, const N: usize>(name: &str) -> Consts<T, N> {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -68,7 +68,7 @@ pub struct State {
     pub omega: DVec3,
 }
 
-/// Flags an impact can raise (defined in shared/golden/README.md).
+/// Flags an impact can raise (defined in tests/data/golden/README.md).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Flags {
     /// `T⁺ > T⁻(1 + 1e-9)`.

@@ -189,7 +189,7 @@ impl SymMatrix {
 }
 
 /// Smallest eigenvalue of `S = D^-½ M D^-½` (`S_ii = 1`), the conditioning
-/// measure behind the `degenerate` flag (shared/golden/README.md). For an
+/// measure behind the `degenerate` flag (tests/data/golden/README.md). For an
 /// empty matrix it is 1.
 pub fn smallest_eigenvalue_scaled(m: &SymMatrix) -> f64 {
     match m.dim() {

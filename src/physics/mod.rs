@@ -1,4 +1,4 @@
-//! Pure f64 reference of `shared/physics.md`.
+//! Pure f64 reference of `docs/spec/physics.md`.
 //!
 //! Nothing in here draws random numbers, spawns threads or writes files: it is
 //! the scalar model that every fast path of the engine is tested against.

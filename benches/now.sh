@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# The "now" table of the README and docs/performance.md, measured on the
+# machine it runs on: end to end, two threads, summary statistics only (and
+# one per-sample export), SERIES interleaved series, medians. Prints the
+# table as Markdown, headed by the date, the version and commit, the CPU
+# model and its SIMD flags; progress goes to stderr.
+#
+# usage: bash benches/now.sh [SERIES] [SCRATCH_DIR]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+series=${1:-3}
+out=${2:-/tmp/impactmc-now}
+threads=${THREADS:-2}
+mkdir -p "$out"
+cargo build --release --quiet
+bin=target/release/impactmc
+
+# S3 with μ = 0.3 on every wall.
+sed 's/^restitution = \(.*\)$/restitution = \1\nfriction = 0.3/' configs/corner3.toml \
+    > "$out/corner3_mu03.toml"
+
+# Each row: LABEL|SCENE|LAW|PRECISION|SAMPLES|EXTRA FLAGS
+rows=(
+    "S1 \`floor\`|configs/floor.toml|newton|f32|200000000|"
+    "S1 \`floor\`|configs/floor.toml|newton|f64|100000000|"
+    "S3 \`corner3\`|configs/corner3.toml|newton|f32|200000000|"
+    "S3 \`corner3\`|configs/corner3.toml|newton|f64|100000000|"
+    "\`drop_corner\`, 5 impacts (f64 reference)|configs/drop_corner.toml|newton|f64|200000|"
+    "\`floor_friction\`, μ = 0.5|configs/floor_friction.toml|newton|f32|20000000|"
+    "S3 with μ = 0.3 on every wall|$out/corner3_mu03.toml|newton|f32|20000|"
+    "S3 \`corner3\`, per-sample export (47 columns, rows/s)|configs/corner3.toml|newton|f32|4000000|--per-sample"
+)
+
+# samples/s of one run: SCENE LAW PRECISION SAMPLES [FLAGS...]
+rate() {
+    local scene=$1 law=$2 precision=$3 samples=$4
+    shift 4
+    rm -rf "$out/run"
+    local t0 t1
+    t0=$(date +%s.%N)
+    "$bin" run "$scene" --law "$law" --precision "$precision" --samples "$samples" \
+        --threads "$threads" --format json --out "$out/run" --force "$@" \
+        > "$out/summary.json" 2> /dev/null
+    t1=$(date +%s.%N)
+    if [ "$#" -gt 0 ]; then
+        # With export the rate is the wall time of the whole command, so
+        # that writing and renaming the file count.
+        awk -v n="$samples" -v a="$t0" -v b="$t1" 'BEGIN { printf "%.6e\n", n / (b - a) }'
+    else
+        python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["throughput"]["samples_per_second"])' \
+            "$out/summary.json"
+    fi
+}
+
+: > "$out/rates"
+for s in $(seq "$series"); do
+    for i in "${!rows[@]}"; do
+        IFS='|' read -r label scene law precision samples flags <<< "${rows[$i]}"
+        # shellcheck disable=SC2086
+        r=$(rate "$scene" "$law" "$precision" "$samples" $flags)
+        echo "$i $r" >> "$out/rates"
+        echo "series $s: $label $precision: $r /s" >&2
+    done
+done
+
+cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
+simd=$(grep -m1 '^flags' /proc/cpuinfo | tr ' ' '\n' | grep -E '^(avx2|fma|avx512f|avx512vl|avx512bw|avx512dq)$' | sort | paste -sd ' ' -)
+version=$(grep -m1 '^version' Cargo.toml | cut -d'"' -f2)
+commit=$(git rev-parse --short HEAD 2> /dev/null || echo unknown)
+printf '%s\n' "${rows[@]}" > "$out/rows"
+python3 - "$out/rows" "$out/rates" "$series" "$threads" "$cpu" "${simd:-none}" "$version" "$commit" <<'EOF'
+import datetime, statistics, sys
+rows_path, rates_path, series, threads, cpu, simd, version, commit = sys.argv[1:]
+rows = [l.rstrip("\n").split("|") for l in open(rows_path)]
+rates = {}
+for line in open(rates_path):
+    i, r = line.split()
+    rates.setdefault(int(i), []).append(float(r))
+
+def sci(x):
+    e = len(str(int(x))) - 1 if x >= 1 else 0
+    m = x / 10**e
+    sup = str(e).translate(str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"))
+    return f"{m:.2f}·10{sup}"
+
+date = datetime.date.today().isoformat()
+print(f"Measured {date} by `bash benches/now.sh {series}`: impactmc {version} "
+      f"(`{commit}`), {cpu} (SIMD: {simd}), {threads} threads, end to end, "
+      f"summary statistics only unless the row says otherwise; the median of "
+      f"{series} interleaved series, each run's figure in brackets.")
+print()
+print("| scene | law | precision | samples/s | runs |")
+print("|---|---|---|---|---|")
+for i, (label, scene, law, precision, samples, flags) in enumerate(rows):
+    rs = rates.get(i, [])
+    runs = ", ".join(f"{r / 10 ** (len(str(int(statistics.median(rs)))) - 1):.2f}" for r in rs)
+    print(f"| {label} | {law} | {precision} | {sci(statistics.median(rs))} | {runs} |")
+EOF

@@ -1,0 +1,94 @@
+//! Each touching plane's contact frame per lane: directions, levers and
+//! the Delassus blocks in those coordinates (friction.md §2).
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+/// The contact frames of a block, and the geometry the statistics read
+/// (normal velocities, T⁻, approach bits; in f32 grazing lanes flagged as
+/// in [`geometry`]).
+use crate::kernel::{APPROACHING_SHIFT, Consts, Geometry, RECOMPUTE, bit};
+use crate::kernel::friction::Frame;
+use crate::kernel::geometry::dot3;
+use crate::lanes::Real;
+use crate::lanes::dispatch::BLOCK;
+use crate::sampler::Inputs;
+#[inline(always)]
+pub fn frame<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    x: &Inputs<T>,
+    fr: &mut Frame<T, N>,
+    geo: &mut Geometry<T, N>,
+) {
+    let f32_lanes = T::EPSILON.to_f64() > 1e-10;
+    for s in 0..BLOCK {
+        let a: [T; 9] = std::array::from_fn(|k| x.a[k][s]);
+        let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
+        let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
+        let vscale = c.length.mul_add(dot3(w, w).sqrt(), dot3(v, v).sqrt());
+        let mut status = 0u32;
+        for i in 0..N {
+            let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
+            // Aᵀd for each direction: the body-frame directions.
+            let body: [[T; 3]; 3] = std::array::from_fn(|d| {
+                std::array::from_fn(|col| dot3([a[col], a[3 + col], a[6 + col]], dirs[d]))
+            });
+            let u = body[0];
+            let h = dot3([c.semi2[0] * u[0], c.semi2[1] * u[1], c.semi2[2] * u[2]], u).sqrt();
+            let minus_inv_h = -T::ONE / h;
+            // The support point x = −diag(a², b², c²) u / h (physics.md §2).
+            let p: [T; 3] = std::array::from_fn(|k| c.semi2[k] * u[k] * minus_inv_h);
+            let lever: [[T; 3]; 3] = std::array::from_fn(|d| {
+                let e = body[d];
+                [
+                    p[1] * e[2] - p[2] * e[1],
+                    p[2] * e[0] - p[0] * e[2],
+                    p[0] * e[1] - p[1] * e[0],
+                ]
+            });
+            for d in 0..3 {
+                for k in 0..3 {
+                    fr.lever[i][d][k][s] = lever[d][k];
+                }
+                fr.c0[i][d][s] = dot3(lever[d], w) + dot3(dirs[d], v);
+            }
+            let wde = |d: usize, e: usize| {
+                let mut x = if d == e { c.inv_mass } else { T::ZERO };
+                for k in 0..3 {
+                    x = (lever[d][k] * lever[e][k]).mul_add(c.inv_inertia[k], x);
+                }
+                x
+            };
+            let blocks = [
+                wde(0, 0),
+                wde(0, 1),
+                wde(0, 2),
+                wde(1, 1),
+                wde(1, 2),
+                wde(2, 2),
+            ];
+            for m in 0..6 {
+                fr.w[i][m][s] = blocks[m];
+            }
+            let vn = fr.c0[i][0][s];
+            geo.vn[i][s] = vn;
+            status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
+            status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
+        }
+        fr.vscale[s] = vscale;
+        geo.t_before[s] = T::HALF
+            * c.mass.mul_add(
+                dot3(v, v),
+                dot3(
+                    [
+                        c.inertia[0] * w[0],
+                        c.inertia[1] * w[1],
+                        c.inertia[2] * w[2],
+                    ],
+                    w,
+                ),
+            );
+        geo.status[s] = status;
+    }
+}

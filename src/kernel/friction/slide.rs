@@ -1,0 +1,565 @@
+//! The single-contact solve in lanes (friction.md §3): take-off and stick
+//! tests, the slide angle's roots on a certified 32-interval grid, their
+//! refinement and judgement, and the lane's decision.
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+/// The slide case's trigonometric polynomials (friction.md, case 3), with
+/// `ŝ = (cos θ, sin θ)` in the tangent basis and `v(θ) = D(θ) c_t −
+/// a (w_t − μ W_tt ŝ)`, `D(θ) = W_nn − μ w_t·ŝ`:
+/// - `F(θ) = ŝ⊥·v = A0 + A1 cos θ + B1 sin θ + A2 cos 2θ + B2 sin 2θ`, whose
+///   roots are the slide directions;
+/// - `N(θ) = ŝ·v = N0 − B1 cos θ + A1 sin θ − B2 cos 2θ + A2 sin 2θ`, the
+///   sliding speed times D at a root.
+///
+/// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
+/// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
+use crate::kernel::{Consts, bit};
+use crate::kernel::friction::{Frame, FrictionConsts, GRID, MOVED_SHIFT, STICK_SHIFT, Sweep, UNSURE};
+use crate::kernel::geometry::dot3;
+use crate::lanes::{Real, select};
+use crate::lanes::dispatch::BLOCK;
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Slide<T> {
+    a0: T,
+    a1: T,
+    b1: T,
+    a2: T,
+    b2: T,
+    n0: T,
+}
+
+impl<T: Real> Slide<T> {
+    /// From μ, the free tangential velocity `ct`, `a = c_n + b` and the
+    /// Delassus block (nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂).
+    #[inline(always)]
+    fn new(mu: T, ct: [T; 2], a: T, w: [T; 6]) -> Self {
+        let [wnn, w1, w2, p, q, r] = w;
+        let [c1, c2] = ct;
+        let hm = T::HALF * mu;
+        let am = a * mu;
+        Self {
+            a0: hm * w2.mul_add(c1, -(w1 * c2)),
+            a1: wnn.mul_add(c2, -(a * w2)),
+            b1: a.mul_add(w1, -(wnn * c1)),
+            a2: am.mul_add(q, -(hm * w1.mul_add(c2, w2 * c1))),
+            b2: (T::HALF * am).mul_add(r - p, -(hm * w2.mul_add(c2, -(w1 * c1)))),
+            n0: (T::HALF * am).mul_add(p + r, -(hm * w1.mul_add(c1, w2 * c2))),
+        }
+    }
+
+    /// F, F′, F″, F‴, F⁗ at the angle with (cos θ, sin θ, cos 2θ, sin 2θ)
+    /// = `g`.
+    #[inline(always)]
+    fn at(&self, g: [T; 4]) -> [T; 5] {
+        let Self {
+            a0, a1, b1, a2, b2, ..
+        } = *self;
+        let [cs, sn, c2t, s2t] = g;
+        let two = T::ONE + T::ONE;
+        let four = two + two;
+        let eight = four + four;
+        [
+            b2.mul_add(s2t, a2.mul_add(c2t, b1.mul_add(sn, a1.mul_add(cs, a0)))),
+            (two * b2).mul_add(c2t, (-two * a2).mul_add(s2t, b1.mul_add(cs, -(a1 * sn)))),
+            (-four * b2).mul_add(
+                s2t,
+                (-four * a2).mul_add(c2t, (-b1).mul_add(sn, -(a1 * cs))),
+            ),
+            (-eight * b2).mul_add(c2t, (eight * a2).mul_add(s2t, (-b1).mul_add(cs, a1 * sn))),
+            (eight * two * b2).mul_add(
+                s2t,
+                (eight * two * a2).mul_add(c2t, b1.mul_add(sn, a1 * cs)),
+            ),
+        ]
+    }
+
+    /// N at the angle with (cos θ, sin θ, cos 2θ, sin 2θ) = `g`.
+    #[inline(always)]
+    fn numerator(&self, g: [T; 4]) -> T {
+        let Self {
+            a1, b1, a2, b2, n0, ..
+        } = *self;
+        let [cs, sn, c2t, s2t] = g;
+        a2.mul_add(
+            s2t,
+            (-b2).mul_add(c2t, a1.mul_add(sn, (-b1).mul_add(cs, n0))),
+        )
+    }
+}
+
+/// Whether `g > m` on a whole grid interval, from g, g′ and g″ at both
+/// ends and `l3 ≥ |g‴|`. On the half next to an end, g″ ≥ κ = g″(end) −
+/// l3·h/2, so g lies above the quadratic with that value, slope and
+/// curvature κ; the quadratic's least value on the half is at one of its
+/// ends or at its vertex (clamped into the half).
+#[inline(always)]
+pub(super) fn positive_on<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    g: [T; 2],
+    slope: [T; 2],
+    curve: [T; 2],
+    l3: T,
+    m: T,
+) -> bool {
+    let half = fc.half_h;
+    // From the left end in t ≥ 0, from the right end in t = θ_j+1 − θ ≥ 0.
+    let side = |g0: T, s0: T, c0: T| {
+        let kappa = l3.mul_add(-half, c0);
+        let vertex = (-s0 / kappa).max(T::ZERO).min(half);
+        let q = |t: T| (T::HALF * kappa).mul_add(t * t, s0.mul_add(t, g0));
+        (q(half) > m) & (q(vertex) > m)
+    };
+    (g[0] > m) & (g[1] > m) & side(g[0], slope[0], curve[0]) & side(g[1], -slope[1], curve[1])
+}
+
+/// One contact's single-contact solve across a block, pass by pass (each
+/// pass a loop over the lanes, so that it vectorises): the set-up with the
+/// stick case, the grid intervals, the refinement of each root, the
+/// choice. Cache-line aligned; one per worker.
+#[repr(C, align(64))]
+pub(super) struct Solve<T> {
+    /// `a = c_n + b` of the free contact-point velocity.
+    pub(super) a: [T; BLOCK],
+    /// The stick case's impulse, and whether it is valid, or clearly not.
+    pub(super) stick: [[T; BLOCK]; 3],
+    pub(super) stick_ok: [bool; BLOCK],
+    pub(super) stick_no: [bool; BLOCK],
+    /// [`Slide`]'s coefficients: A0, A1, B1, A2, B2, N0.
+    pub(super) coef: [[T; BLOCK]; 6],
+    /// Bounds on |F‴|, |F⁗| and |F⁽⁵⁾|, and the margins of F (and N) and
+    /// of D.
+    pub(super) l3: [T; BLOCK],
+    pub(super) l4: [T; BLOCK],
+    pub(super) l5: [T; BLOCK],
+    pub(super) m_f: [T; BLOCK],
+    pub(super) m_d: [T; BLOCK],
+    /// F, F′, F″, F‴, F⁗ at the current interval's left end.
+    pub(super) left: [[T; BLOCK]; 5],
+    /// Sign changes of F so far, and whether every interval was certified.
+    pub(super) changes: [T; BLOCK],
+    pub(super) grid_ok: [bool; BLOCK],
+    /// Per sign change (at most four): the interval index j, F(θ_j),
+    /// F(θ_j+1).
+    pub(super) slot: [[[T; BLOCK]; 3]; 4],
+    /// The refinement of the current root: cos θ_j, sin θ_j, t, lo, hi and
+    /// the last step.
+    pub(super) newton: [[T; BLOCK]; 6],
+    /// Valid slide roots, the last one's direction, and whether every root
+    /// was judged clear of the margins.
+    pub(super) count: [T; BLOCK],
+    pub(super) dir: [[T; BLOCK]; 2],
+    pub(super) roots_ok: [bool; BLOCK],
+}
+
+impl<T: Real> Solve<T> {
+    pub(super) fn empty() -> Self {
+        let z = [T::ZERO; BLOCK];
+        Self {
+            a: z,
+            stick: [z; 3],
+            stick_ok: [false; BLOCK],
+            stick_no: [false; BLOCK],
+            coef: [z; 6],
+            l3: z,
+            l4: z,
+            l5: z,
+            m_f: z,
+            m_d: z,
+            left: [z; 5],
+            changes: z,
+            grid_ok: [false; BLOCK],
+            slot: [[z; 3]; 4],
+            newton: [z; 6],
+            count: z,
+            dir: [z; 2],
+            roots_ok: [false; BLOCK],
+        }
+    }
+}
+
+/// The Delassus block of contact i in lane s.
+#[inline(always)]
+pub(super) fn w_of<T: Real, const N: usize>(fr: &Frame<T, N>, i: usize, s: usize) -> [T; 6] {
+    std::array::from_fn(|m| fr.w[i][m][s])
+}
+
+/// Set-up of a visit of contact i: the free velocity (with the other
+/// contacts' impulses when `COUPLED`), `a` with Newton's bias
+/// `b = k min(c⁻_n, 0)`, the stick case (`W P = (−a, −c_t)` by the
+/// symmetric cofactors), and the slide polynomials with their bounds and
+/// margins.
+#[inline(always)]
+pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let fc = &c.fr;
+    let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
+    let mu = fc.mu[i];
+    let Sweep {
+        p, dv, dw, solve, ..
+    } = sw;
+    let k = &mut *solve;
+    for s in 0..BLOCK {
+        let w = w_of(fr, i, s);
+        let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
+        if COUPLED {
+            let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
+            let dv = [dv[0][s], dv[1][s], dv[2][s]];
+            let dw = [dw[0][s], dw[1][s], dw[2][s]];
+            // W_ii P_i, to take this contact's own impulse out.
+            let own = [
+                dot3([w[0], w[1], w[2]], old),
+                dot3([w[1], w[3], w[4]], old),
+                dot3([w[2], w[4], w[5]], old),
+            ];
+            for d in 0..3 {
+                let lever = [
+                    fr.lever[i][d][0][s],
+                    fr.lever[i][d][1][s],
+                    fr.lever[i][d][2][s],
+                ];
+                cf[d] = cf[d] + dot3(dirs[d], dv) + dot3(lever, dw) - own[d];
+            }
+        }
+        let a = c.k[i].mul_add(fr.c0[i][0][s].min(T::ZERO), cf[0]);
+        let [wnn, w1, w2, pp, q, r] = w;
+        let [_, c1, c2] = cf;
+        let k00 = pp.mul_add(r, -(q * q));
+        let k01 = w2.mul_add(q, -(w1 * r));
+        let k02 = w1.mul_add(q, -(pp * w2));
+        let k11 = wnn.mul_add(r, -(w2 * w2));
+        let k12 = w1.mul_add(w2, -(wnn * q));
+        let k22 = wnn.mul_add(pp, -(w1 * w1));
+        let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
+        let rhs = [-a, -c1, -c2];
+        let stick = [
+            dot3([k00, k01, k02], rhs) * inv,
+            dot3([k01, k11, k12], rhs) * inv,
+            dot3([k02, k12, k22], rhs) * inv,
+        ];
+        let f_stick = stick[1].mul_add(stick[1], stick[2] * stick[2]).sqrt();
+        let limit = mu * stick[0];
+        k.stick_ok[s] = (stick[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
+        k.stick_no[s] = f_stick >= limit * (T::ONE + fc.stick_band);
+        let sl = Slide::new(mu, [c1, c2], a, w);
+        let coef = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
+        let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
+        let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
+        // |F⁽ᵏ⁾| ≤ |c₁| + 2ᵏ|c₂| for a degree-2 polynomial's amplitudes.
+        k.l3[s] = T::from_f64(8.0).mul_add(f2, f1);
+        k.l4[s] = T::from_f64(16.0).mul_add(f2, f1);
+        k.l5[s] = T::from_f64(32.0).mul_add(f2, f1);
+        // Margins: values within rounding (and, in f32, within the inputs'
+        // own rounding) of zero decide nothing.
+        let (mw1, mw2) = (mu * w1, mu * w2);
+        let ld = mw1.mul_add(mw1, mw2 * mw2).sqrt();
+        let mag = (wnn + ld) * (c1.abs() + c2.abs())
+            + a.abs() * ((w1.abs() + w2.abs()) + mu * (pp.abs() + q.abs() + r.abs()));
+        k.m_f[s] = fc.round * mag;
+        k.m_d[s] = fc.round * (wnn + ld);
+        let left = sl.at(fc.grid[0]);
+        for m in 0..3 {
+            k.stick[m][s] = stick[m];
+        }
+        for m in 0..5 {
+            k.left[m][s] = left[m];
+        }
+        for m in 0..6 {
+            k.coef[m][s] = coef[m];
+        }
+        k.a[s] = a;
+        k.changes[s] = T::ZERO;
+        k.grid_ok[s] = true;
+        k.count[s] = T::ZERO;
+        k.roots_ok[s] = true;
+        k.dir[0][s] = T::ONE;
+        k.dir[1][s] = T::ZERO;
+    }
+}
+
+/// The slide polynomials of lane s.
+#[inline(always)]
+pub(super) fn slide_of<T: Real>(k: &Solve<T>, s: usize) -> Slide<T> {
+    Slide {
+        a0: k.coef[0][s],
+        a1: k.coef[1][s],
+        b1: k.coef[2][s],
+        a2: k.coef[3][s],
+        b2: k.coef[4][s],
+        n0: k.coef[5][s],
+    }
+}
+
+/// Grid interval j of every lane: certified root-free, or holding exactly
+/// one root (F′ keeps the sign of the change), which takes the next slot.
+#[inline(always)]
+pub(super) fn interval<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, j: usize, k: &mut Solve<T>) {
+    let index = T::from_f64(j as f64);
+    let g = fc.grid[j + 1];
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let right = sl.at(g);
+        let [f0, fp0, fpp0, fppp0, f40] = std::array::from_fn(|m| k.left[m][s]);
+        let [f1, fp1, fpp1, fppp1, f41] = right;
+        let (l3, m_f) = (k.l3[s], k.m_f[s]);
+        let rise = (f0 <= T::ZERO) & (f1 > T::ZERO);
+        let fall = (f0 > T::ZERO) & (f1 <= T::ZERO);
+        let (l4, l5) = (k.l4[s], k.l5[s]);
+        let root_free = positive_on(fc, [f0, f1], [fp0, fp1], [fpp0, fpp1], l3, m_f)
+            | positive_on(fc, [-f0, -f1], [-fp0, -fp1], [-fpp0, -fpp1], l3, m_f);
+        // One root where F changes sign: F′ keeps the sign of the change
+        // (F monotone), or F″ keeps a sign (F convex or concave: at most
+        // two roots, and an odd count).
+        let monotone = (rise & positive_on(fc, [fp0, fp1], [fpp0, fpp1], [fppp0, fppp1], l4, m_f))
+            | (fall & positive_on(fc, [-fp0, -fp1], [-fpp0, -fpp1], [-fppp0, -fppp1], l4, m_f));
+        let convex = positive_on(fc, [fpp0, fpp1], [fppp0, fppp1], [f40, f41], l5, m_f)
+            | positive_on(fc, [-fpp0, -fpp1], [-fppp0, -fppp1], [-f40, -f41], l5, m_f);
+        let one_root = monotone | convex;
+        let change = rise | fall;
+        k.grid_ok[s] &= (change & one_root) | (!change & root_free);
+        let changes = k.changes[s];
+        let new = [index, f0, f1];
+        for n in 0..4 {
+            let take = change & (changes == T::from_f64(n as f64));
+            for m in 0..3 {
+                k.slot[n][m][s] = select(take, new[m], k.slot[n][m][s]);
+            }
+        }
+        k.changes[s] = changes + select(change, T::ONE, T::ZERO);
+        for m in 0..5 {
+            k.left[m][s] = right[m];
+        }
+    }
+}
+
+/// Starts the refinement of root n: cos θ_j, sin θ_j of its interval and
+/// the secant through the interval's ends, in t = θ − θ_j ∈ [0, h].
+#[inline(always)]
+pub(super) fn root_start<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, n: usize, k: &mut Solve<T>) {
+    let per_turn = T::from_f64(1.0 / GRID as f64);
+    for s in 0..BLOCK {
+        let used = k.changes[s] > T::from_f64(n as f64);
+        let j = select(used, k.slot[n][0][s], T::ZERO);
+        let (sn, cs) = (j * per_turn).sin_cos_2pi();
+        let (fl, fr) = (k.slot[n][1][s], k.slot[n][2][s]);
+        let t = select(used, fl / (fl - fr), T::HALF) * fc.h;
+        let start = [cs, sn, t, T::ZERO, fc.h, fc.h];
+        for m in 0..6 {
+            k.newton[m][s] = start[m];
+        }
+    }
+}
+
+/// cos and sin of θ_j + t.
+#[inline(always)]
+pub(super) fn rotate<T: Real>(cj: T, sj: T, t: T) -> (T, T) {
+    let (st, ct) = T::sin_cos_quarter(t * T::from_f64(std::f64::consts::FRAC_2_PI));
+    (cj.mul_add(ct, -(sj * st)), sj.mul_add(ct, cj * st))
+}
+
+/// (cos θ, sin θ, cos 2θ, sin 2θ) from cos θ and sin θ.
+#[inline(always)]
+pub(super) fn angles<T: Real>(cs: T, sn: T) -> [T; 4] {
+    [cs, sn, cs.mul_add(cs, -(sn * sn)), (cs + cs) * sn]
+}
+
+/// One safeguarded Newton step on root n: the bracket keeps the root, and a
+/// step that leaves it is replaced by bisection.
+#[inline(always)]
+pub(super) fn root_step<T: Real>(n: usize, k: &mut Solve<T>) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let [cj, sj, t, lo, hi, _] = std::array::from_fn(|m| k.newton[m][s]);
+        let up = k.slot[n][2][s] > k.slot[n][1][s];
+        let (cs, sn) = rotate(cj, sj, t);
+        let [f, fp, ..] = sl.at(angles(cs, sn));
+        let below = (f < T::ZERO) == up;
+        let lo = select(below, t, lo);
+        let hi = select(below, hi, t);
+        let newton = t - f / fp;
+        let next = select((newton >= lo) & (newton <= hi), newton, T::HALF * (lo + hi));
+        let now = [cj, sj, next, lo, hi, (next - t).abs()];
+        for m in 0..6 {
+            k.newton[m][s] = now[m];
+        }
+    }
+}
+
+/// Judges root n where it is: valid when D > 0 and the sliding speed N/D
+/// exceeds friction.md's stick threshold, clear of both by the margins.
+#[inline(always)]
+pub(super) fn root_judge<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    i: usize,
+    n: usize,
+    fr: &Frame<T, N>,
+    k: &mut Solve<T>,
+) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let used = k.changes[s] > T::from_f64(n as f64);
+        let [cj, sj, t, _, _, step] = std::array::from_fn(|m| k.newton[m][s]);
+        let (cs, sn) = rotate(cj, sj, t);
+        let [wnn, w1, w2, ..] = w_of(fr, i, s);
+        let d = (-mu * w2).mul_add(sn, (-mu * w1).mul_add(cs, wnn));
+        let num = sl.numerator(angles(cs, sn));
+        let vscale = fr.vscale[s];
+        let (m_f, m_d) = (k.m_f[s], k.m_d[s]);
+        let dpos = d > m_d;
+        let valid = dpos & ((fc.slide_hi * vscale).mul_add(-d, num) > m_f);
+        let invalid = (d < -m_d) | (dpos & ((fc.slide_lo * vscale).mul_add(-d, num) < -m_f));
+        k.roots_ok[s] &= !used | ((valid | invalid) & (step <= fc.angle_tol));
+        let take = used & valid;
+        k.count[s] += select(take, T::ONE, T::ZERO);
+        k.dir[0][s] = select(take, cs, k.dir[0][s]);
+        k.dir[1][s] = select(take, sn, k.dir[1][s]);
+    }
+}
+
+/// The end of a visit of contact i: the impulse (take-off, stick, or the
+/// one valid slide root; with μ = 0, `max(−a, 0)/W_nn · n`), its effect on
+/// v and ω, the largest move, and the stick and unsure bits.
+#[inline(always)]
+pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let fc = &c.fr;
+    let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
+    let mu = fc.mu[i];
+    let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
+    let own_moved = 1u32 << (MOVED_SHIFT + i as u32);
+    let others_moved = (((1u32 << N) - 1) << MOVED_SHIFT) & !own_moved;
+    let Sweep {
+        p,
+        dv,
+        dw,
+        moved,
+        bits,
+        solve,
+    } = sw;
+    let k = &*solve;
+    for s in 0..BLOCK {
+        let a = k.a[s];
+        let w = w_of(fr, i, s);
+        let approaching = a < T::ZERO;
+        let (new, stuck, sure) = if ROUGH {
+            let [cs, sn] = [k.dir[0][s], k.dir[1][s]];
+            let d = (-mu * w[2]).mul_add(sn, (-mu * w[1]).mul_add(cs, w[0]));
+            let lambda = -a / d;
+            let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
+            let (stick_ok, stick_no) = (k.stick_ok[s], k.stick_no[s]);
+            let count = k.count[s];
+            let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
+            let sure_a = a.abs() > fc.take_off_band * fr.vscale[s];
+            // Take-off decides nothing within rounding of a = 0 on either
+            // side: just below it, a stick impulse need not be small
+            // (Painlevé's impact without collision).
+            let sure = sure_a & (!approaching | (k.grid_ok[s] & k.roots_ok[s] & one_case));
+            let new: [T; 3] = std::array::from_fn(|m| {
+                select(
+                    approaching,
+                    select(stick_ok, k.stick[m][s], slide[m]),
+                    T::ZERO,
+                )
+            });
+            (new, approaching & stick_ok, sure)
+        } else {
+            (
+                [select(approaching, -a / w[0], T::ZERO), T::ZERO, T::ZERO],
+                false,
+                true,
+            )
+        };
+        let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
+        let dp = [new[0] - old[0], new[1] - old[1], new[2] - old[2]];
+        for m in 0..3 {
+            let lever = [
+                fr.lever[i][0][m][s],
+                fr.lever[i][1][m][s],
+                fr.lever[i][2][m][s],
+            ];
+            let lin = dp[2].mul_add(dirs[2][m], dp[1].mul_add(dirs[1][m], dp[0] * dirs[0][m]));
+            dv[m][s] = lin.mul_add(c.inv_mass, dv[m][s]);
+            let ang = dp[2].mul_add(lever[2], dp[1].mul_add(lever[1], dp[0] * lever[0]));
+            dw[m][s] = ang.mul_add(c.inv_inertia[m], dw[m][s]);
+            p[i][m][s] = new[m];
+        }
+        moved[s] = moved[s].max(dot3(dp, dp).sqrt());
+        // An active contact's visit moves the others (in exact arithmetic
+        // its increment is zero only at the limit), as does any change.
+        let nonzero =
+            (dp[0] != T::ZERO) | (dp[1] != T::ZERO) | (dp[2] != T::ZERO) | (new[0] != T::ZERO);
+        // A visit that saw the other contacts' impulses (COUPLED) starts
+        // this contact afresh; paper's visits see none of them.
+        let fresh = if COUPLED { own_moved } else { 0 };
+        bits[s] = (bits[s] & !(stick_bit | fresh))
+            | bit(stuck, stick_bit)
+            | bit(!sure, UNSURE)
+            | bit(nonzero, others_moved);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed-form coefficients of F and N are friction.md's
+    /// definitions, `ŝ⊥·v(θ)` and `ŝ·v(θ)` with
+    /// `v = D(θ) c_t − a (w_t − μ W_tt ŝ)`, and F′ to F⁗ F's derivatives
+    /// (central differences), at random angles and inputs.
+    #[test]
+    fn slide_polynomials_are_the_definition() {
+        let mut state = 7u64;
+        let mut next = || {
+            state += 1;
+            (crate::sampler::rng::mix64(state) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for _ in 0..1000 {
+            let (wnn, w1, w2) = (1.0 + next().abs(), next(), next());
+            let (p, q, r) = (1.0 + next().abs(), 0.3 * next(), 1.0 + next().abs());
+            let (c1, c2, a, mu) = (next(), next(), -next().abs(), 2.0 * next().abs());
+            let k = Slide::new(mu, [c1, c2], a, [wnn, w1, w2, p, q, r]);
+            let def = |th: f64| {
+                let (sn, cs) = th.sin_cos();
+                let d = wnn - mu * (w1 * cs + w2 * sn);
+                let m = [p * cs + q * sn, q * cs + r * sn];
+                let v = [d * c1 - a * (w1 - mu * m[0]), d * c2 - a * (w2 - mu * m[1])];
+                (-sn * v[0] + cs * v[1], cs * v[0] + sn * v[1])
+            };
+            let th = 7.0 * next();
+            let g = |th: f64| [th.cos(), th.sin(), (2.0 * th).cos(), (2.0 * th).sin()];
+            let [f, fp, fpp, fppp, f4] = k.at(g(th));
+            let [.., fpppa, _] = k.at(g(th + 1e-4));
+            let [.., fpppb, _] = k.at(g(th - 1e-4));
+            assert!((f4 - (fpppa - fpppb) / 2e-4).abs() < 1e-6, "F⁗ at {th}");
+            let [_, fpa, ..] = k.at(g(th + 1e-4));
+            let [_, fpb, ..] = k.at(g(th - 1e-4));
+            assert!(
+                (fppp - (fpa - 2.0 * fp + fpb) / 1e-8).abs() < 1e-5,
+                "F‴ at {th}"
+            );
+            let n = k.numerator(g(th));
+            let (f_def, n_def) = def(th);
+            let e = 1e-4;
+            let (fa, _) = def(th + e);
+            let (fb, _) = def(th - e);
+            assert!((f - f_def).abs() < 1e-12, "F {f} vs {f_def}");
+            assert!((n - n_def).abs() < 1e-12, "N {n} vs {n_def}");
+            assert!((fp - (fa - fb) / (2.0 * e)).abs() < 1e-6, "F′ at {th}");
+            assert!(
+                (fpp - (fa - 2.0 * f_def + fb) / (e * e)).abs() < 1e-5,
+                "F″ at {th}"
+            );
+        }
+    }
+}

@@ -1,0 +1,131 @@
+//! The laws as visits of the single-contact solve: Gauss–Seidel sweeps
+//! for `newton` (to its stopping rule) and `pgsN`, one visit per contact for
+//! `paper` (friction.md §5).
+
+// Lane code indexes SoA arrays by lane and contact on purpose: the index
+// form is what the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
+/// One visit of contact i in every lane (friction.md's single-contact
+/// solve, or with μ = 0 its closed form).
+use crate::kernel::{Consts, Geometry, LawOut};
+use crate::kernel::friction::{Frame, GRID, Sweep, UNSURE};
+use crate::kernel::friction::post::friction_post;
+use crate::kernel::friction::slide::{finish, interval, root_judge, root_start, root_step, setup};
+use crate::lanes::Real;
+use crate::lanes::dispatch::BLOCK;
+use crate::physics::Law;
+use crate::sampler::Inputs;
+#[inline(always)]
+pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
+    c: &Consts<T, N>,
+    i: usize,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    let fc = &c.fr;
+    setup::<T, N, COUPLED>(c, i, fr, sw);
+    if fc.mu[i] == T::ZERO {
+        finish::<T, N, COUPLED, false>(c, i, fr, sw);
+        return;
+    }
+    let k = &mut sw.solve;
+    for j in 0..GRID {
+        interval(fc, j, k);
+    }
+    let iters = if T::EPSILON.to_f64() > 1e-10 { 5 } else { 8 };
+    for n in 0..4 {
+        // Blocks where no lane has this many roots skip it (no lane's
+        // answer changes).
+        let used = k.changes.iter().any(|&x| x > T::from_f64(n as f64));
+        if !used {
+            break;
+        }
+        root_start(fc, n, k);
+        for _ in 0..iters {
+            root_step(n, k);
+        }
+        root_judge(fc, fc.mu[i], i, n, fr, k);
+    }
+    finish::<T, N, COUPLED, true>(c, i, fr, sw);
+}
+
+/// Every contact visited once, in scene order.
+#[inline(always)]
+pub(super) fn sweep<T: Real, const N: usize, const COUPLED: bool>(
+    c: &Consts<T, N>,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+) {
+    for i in 0..N {
+        visit::<T, N, COUPLED>(c, i, fr, sw);
+    }
+}
+
+/// The impulses of a frictional law on a block, then the post-impact
+/// quantities into `out` (as [`post`] does without friction), with the
+/// tangential impulse and sliding speed per contact.
+#[inline(always)]
+pub fn friction_impulses<T: Real, const N: usize>(
+    c: &Consts<T, N>,
+    law: Law,
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    fr: &Frame<T, N>,
+    sw: &mut Sweep<T, N>,
+    out: &mut LawOut<T, N>,
+) {
+    for i in 0..N {
+        for d in 0..3 {
+            sw.p[i][d] = [T::ZERO; BLOCK];
+        }
+    }
+    for k in 0..3 {
+        sw.dv[k] = [T::ZERO; BLOCK];
+        sw.dw[k] = [T::ZERO; BLOCK];
+    }
+    sw.bits = [0; BLOCK];
+    let mut unconverged = [false; BLOCK];
+    match law {
+        // Each approaching contact alone: its own c⁻ (paper with friction).
+        Law::Paper => sweep::<T, N, false>(c, fr, sw),
+        Law::Pgs { sweeps } => {
+            for _ in 0..sweeps {
+                sweep::<T, N, true>(c, fr, sw);
+            }
+        }
+        // Stronge's Darboux–Keller integration runs per sample in the f64
+        // reference.
+        Law::Stronge => sw.bits = [UNSURE; BLOCK],
+        // One contact: a single visit is the limit (a second moves nothing).
+        Law::Newton if N == 1 => sweep::<T, N, true>(c, fr, sw),
+        // Several contacts: sweeps until no impulse moves by more than the
+        // tolerance (friction.md's stopping rule). The limit is what the
+        // certificate must vouch for: a lane is kept when every visit of its
+        // last sweep was certain and that sweep moved nothing, so that its
+        // impulses satisfy every contact's law; earlier visits only lead
+        // there.
+        Law::Newton => {
+            let mass = c.mass;
+            for _ in 0..c.fr.gs_max {
+                sw.moved = [T::ZERO; BLOCK];
+                for b in sw.bits.iter_mut() {
+                    *b &= !UNSURE;
+                }
+                sweep::<T, N, true>(c, fr, sw);
+                let mut left = 0u32;
+                for s in 0..BLOCK {
+                    let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];
+                    unconverged[s] = still;
+                    left |= still as u32;
+                }
+                if left == 0 {
+                    break;
+                }
+            }
+        }
+        Law::Poisson => unreachable!("poisson with friction is refused by the scene"),
+    }
+    let limit = matches!(law, Law::Newton);
+    friction_post(c, x, geo, fr, sw, limit, &unconverged, out);
+}

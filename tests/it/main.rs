@@ -1,0 +1,32 @@
+//! The integration tests: one crate, so polars and the rest link once.
+//! Each module is one concern; `support` holds what they share (the
+//! binary, scratch folders, shipped and rough scenes, the golden data,
+//! proptest strategies, Parquet reading, `assert_close!`).
+
+#[macro_use]
+mod support;
+
+mod accuracy_ladder;
+mod compliant_convergence;
+mod compliant_friction;
+mod drop_runs;
+mod effects;
+mod engine_runs;
+mod flight;
+mod friction_invariants;
+mod friction_kernel;
+mod friction_scenes;
+mod frozen_summaries;
+mod fuzz_inputs;
+mod golden;
+mod golden_friction;
+mod kernel_vs_reference;
+mod kubernetes;
+mod physics_invariants;
+mod readers;
+mod run_cli;
+mod shards;
+mod slurm;
+mod solve_cli;
+mod stability;
+mod targets_round_alike;
