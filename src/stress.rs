@@ -2,7 +2,7 @@
 //! decades and measures, for every law and precision, non-finite results,
 //! the error of the fast kernel against the f64 reference on the same
 //! inputs, invariant residuals of the reference, and the flags raised.
-//! `tests/stability.rs` runs a small version with bounds; `impactmc stress`
+//! `tests/it/stability.rs` runs a small version with bounds; `impactmc stress`
 //! runs a bigger one and prints the table.
 
 use glam::{DMat3, DVec3};

@@ -107,9 +107,5 @@ pub fn evaluate_samples_with(
     count: usize,
     variant: KernelVariant,
 ) -> Vec<SampleOutcome> {
-    with_kernel!(
-        scene,
-        variant,
-        evaluate_typed(scene, law, (first, count))
-    )
+    with_kernel!(scene, variant, evaluate_typed(scene, law, (first, count)))
 }

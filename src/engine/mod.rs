@@ -143,7 +143,14 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
         let mut first = lo;
         while first < hi {
             let count = ((hi - first) as usize).min(BLOCK);
-            run_block::<T, N, ROT, CPL, FR>(&ctx, first, count, &mut work, &mut part, rows.as_mut());
+            run_block::<T, N, ROT, CPL, FR>(
+                &ctx,
+                first,
+                count,
+                &mut work,
+                &mut part,
+                rows.as_mut(),
+            );
             first += BLOCK as u64;
         }
         part.flush();
@@ -316,11 +323,7 @@ pub fn run_with_samples(
             if scene.drop_box().is_some() {
                 run_drops(scene, opts.keep, r, &bar, sink, rows)
             } else {
-                with_kernel!(
-                    scene,
-                    variant,
-                    run_typed(scene, plan, r, &bar, sink, rows)
-                )
+                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
             }
         })
         .map_err(RunError::Sink)?;

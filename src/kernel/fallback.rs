@@ -7,10 +7,13 @@
 
 use glam::DMat3;
 
-use crate::lanes::Real;
 use crate::config::Scene;
-use crate::kernel::{ACTIVE_SHIFT, AMBIGUOUS, APPROACHING_SHIFT, DEGENERATE, ENERGY_GAIN, Geometry, JAMMED, LawOut, PENETRATING, RECOMPUTE, RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED, bit};
-use crate::physics::{Law, Pose, State, solve_impact};
+use crate::kernel::{
+    bit, Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, APPROACHING_SHIFT, DEGENERATE, ENERGY_GAIN,
+    JAMMED, PENETRATING, RECOMPUTE, RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED,
+};
+use crate::lanes::Real;
+use crate::physics::{solve_impact, Law, Pose, State};
 use crate::sampler::Inputs;
 use glam::DVec3;
 

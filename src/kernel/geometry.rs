@@ -5,9 +5,9 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::{bit, Consts, Geometry, APPROACHING_SHIFT, RECOMPUTE};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::kernel::{APPROACHING_SHIFT, Consts, Geometry, RECOMPUTE, bit};
 use crate::sampler::Inputs;
 
 /// G_ij of lane s: per lane with rotational coupling, else the constant

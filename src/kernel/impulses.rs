@@ -5,11 +5,11 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::lanes::dispatch::BLOCK;
-use crate::lanes::{select, Real};
-use crate::kernel::{ACTIVE_SHIFT, Consts, ENERGY_GAIN, Geometry, LawOut, RECOMPUTE, bit};
 use crate::kernel::geometry::{dot3, g_at};
 use crate::kernel::lcp::{lane_g, lcp_block, lcp_lanes};
+use crate::kernel::{bit, Consts, Geometry, LawOut, ACTIVE_SHIFT, ENERGY_GAIN, RECOMPUTE};
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
 use crate::physics::Law;
 use crate::sampler::Inputs;
 

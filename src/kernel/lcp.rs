@@ -6,10 +6,10 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::geometry::{conditioned_with, g_at, well_conditioned};
+use crate::kernel::{Consts, Geometry};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
-use crate::kernel::{Consts, Geometry};
-use crate::kernel::geometry::{conditioned_with, g_at, well_conditioned};
 
 /// Solves `G_SS λ_S = −q_S` for the subset MASK in closed form.
 #[inline(always)]

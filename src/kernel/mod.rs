@@ -18,7 +18,7 @@
 //! - an LCP without an acceptable candidate (jammed, or rounding);
 //! - a plane outside the placement that touches or is penetrated;
 //! - with friction, a single-contact solve its certificate cannot vouch
-//!   for, or Gauss–Seidel not converged (see `friction.rs`).
+//!   for, or Gauss–Seidel not converged (see `friction/`).
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.

@@ -9,7 +9,7 @@
 //! The damping ratio is chosen so that a linear oscillator of the initial
 //! effective mass rebounds with exactly `k`: `ζ = −ln k / √(π² + ln² k)`.
 //!
-//! Run `cargo test --release --test compliant_convergence -- --nocapture` to
+//! Run `cargo test --release --test it compliant_convergence -- --nocapture` to
 //! print the convergence table quoted in the README.
 
 use glam::{DMat3, DQuat, DVec3};

@@ -74,12 +74,27 @@ fn law_line(key: &str, a: &LawAcc) -> String {
     l
 }
 
+/// The non-zero cells of a count table, as `index:count` pairs.
+fn sparse(counts: &[u64]) -> String {
+    let cells: Vec<String> = counts
+        .iter()
+        .enumerate()
+        .filter(|(_, &c)| c != 0)
+        .map(|(i, c)| format!("{i}:{c}"))
+        .collect();
+    format!("[{}]", cells.join(","))
+}
+
 /// One law's drop statistics: counts by impacts, ending, final axis and
 /// sequence, then per bounce its counts and moments.
 fn drop_line(key: &str, d: &DropAcc) -> String {
     let mut l = format!(
-        "{key} drops: samples={} impacts={:?} endings={:?} final_axis_up={:?} sequences={:?}",
-        d.samples, d.impacts, d.endings, d.final_axis_up, d.sequences
+        "{key} drops: samples={} impacts={:?} endings={:?} final_axis_up={:?} sequences={}",
+        d.samples,
+        d.impacts,
+        d.endings,
+        d.final_axis_up,
+        sparse(&d.sequences)
     );
     for (k, b) in d.bounces.iter().enumerate() {
         l += &format!(

@@ -5,14 +5,14 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::friction::Frame;
+use crate::kernel::geometry::dot3;
 /// The contact frames of a block, and the geometry the statistics read
 /// (normal velocities, T⁻, approach bits; in f32 grazing lanes flagged as
 /// in [`geometry`]).
-use crate::kernel::{APPROACHING_SHIFT, Consts, Geometry, RECOMPUTE, bit};
-use crate::kernel::friction::Frame;
-use crate::kernel::geometry::dot3;
-use crate::lanes::Real;
+use crate::kernel::{bit, Consts, Geometry, APPROACHING_SHIFT, RECOMPUTE};
 use crate::lanes::dispatch::BLOCK;
+use crate::lanes::Real;
 use crate::sampler::Inputs;
 #[inline(always)]
 pub fn frame<T: Real, const N: usize>(

@@ -45,9 +45,9 @@ use crate::config::Scene;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 
+use crate::kernel::friction::slide::Solve;
 pub use frames::frame;
 pub use sweeps::friction_impulses;
-use crate::kernel::friction::slide::Solve;
 
 /// Intervals of the slide angle's grid over [0, 2π).
 const GRID: usize = 32;

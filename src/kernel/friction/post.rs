@@ -5,15 +5,17 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::friction::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT, UNSURE};
+use crate::kernel::geometry::dot3;
 /// Post-impact velocities, normal velocities, energy, tangential impulses
 /// and sliding speeds of a frictional block (`limit`: the impulses are
 /// Newton's converged limit); lanes the solve could not vouch for are
 /// flagged [`RECOMPUTE`].
-use crate::kernel::{ACTIVE_SHIFT, Consts, ENERGY_GAIN, Geometry, LawOut, RECOMPUTE, STICKING_SHIFT, bit};
-use crate::kernel::friction::{Frame, MOVED_SHIFT, STICK_SHIFT, Sweep, UNSURE};
-use crate::kernel::geometry::dot3;
-use crate::lanes::{Real, select};
+use crate::kernel::{
+    bit, Consts, Geometry, LawOut, ACTIVE_SHIFT, ENERGY_GAIN, RECOMPUTE, STICKING_SHIFT,
+};
 use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
 use crate::sampler::Inputs;
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]

@@ -6,6 +6,10 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::friction::{
+    Frame, FrictionConsts, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
+};
+use crate::kernel::geometry::dot3;
 /// The slide case's trigonometric polynomials (friction.md, case 3), with
 /// `ŝ = (cos θ, sin θ)` in the tangent basis and `v(θ) = D(θ) c_t −
 /// a (w_t − μ W_tt ŝ)`, `D(θ) = W_nn − μ w_t·ŝ`:
@@ -16,11 +20,9 @@
 ///
 /// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
 /// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
-use crate::kernel::{Consts, bit};
-use crate::kernel::friction::{Frame, FrictionConsts, GRID, MOVED_SHIFT, STICK_SHIFT, Sweep, UNSURE};
-use crate::kernel::geometry::dot3;
-use crate::lanes::{Real, select};
+use crate::kernel::{bit, Consts};
 use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slide<T> {
     a0: T,
@@ -299,7 +301,11 @@ pub(super) fn slide_of<T: Real>(k: &Solve<T>, s: usize) -> Slide<T> {
 /// Grid interval j of every lane: certified root-free, or holding exactly
 /// one root (F′ keeps the sign of the change), which takes the next slot.
 #[inline(always)]
-pub(super) fn interval<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, j: usize, k: &mut Solve<T>) {
+pub(super) fn interval<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    j: usize,
+    k: &mut Solve<T>,
+) {
     let index = T::from_f64(j as f64);
     let g = fc.grid[j + 1];
     for s in 0..BLOCK {
@@ -341,7 +347,11 @@ pub(super) fn interval<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, j: us
 /// Starts the refinement of root n: cos θ_j, sin θ_j of its interval and
 /// the secant through the interval's ends, in t = θ − θ_j ∈ [0, h].
 #[inline(always)]
-pub(super) fn root_start<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, n: usize, k: &mut Solve<T>) {
+pub(super) fn root_start<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    n: usize,
+    k: &mut Solve<T>,
+) {
     let per_turn = T::from_f64(1.0 / GRID as f64);
     for s in 0..BLOCK {
         let used = k.changes[s] > T::from_f64(n as f64);

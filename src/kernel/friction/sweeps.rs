@@ -6,14 +6,14 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::friction::post::friction_post;
+use crate::kernel::friction::slide::{finish, interval, root_judge, root_start, root_step, setup};
+use crate::kernel::friction::{Frame, Sweep, GRID, UNSURE};
 /// One visit of contact i in every lane (friction.md's single-contact
 /// solve, or with μ = 0 its closed form).
 use crate::kernel::{Consts, Geometry, LawOut};
-use crate::kernel::friction::{Frame, GRID, Sweep, UNSURE};
-use crate::kernel::friction::post::friction_post;
-use crate::kernel::friction::slide::{finish, interval, root_judge, root_start, root_step, setup};
-use crate::lanes::Real;
 use crate::lanes::dispatch::BLOCK;
+use crate::lanes::Real;
 use crate::physics::Law;
 use crate::sampler::Inputs;
 #[inline(always)]

@@ -3,10 +3,10 @@
 
 use glam::{DMat3, DVec3};
 
-use super::single::single_contact;
 use super::delassus;
-use crate::physics::Ellipsoid;
+use super::single::single_contact;
 use crate::physics::friction::single::Single;
+use crate::physics::Ellipsoid;
 
 /// The touching contacts of one impact, as the frictional laws see them.
 #[derive(Debug, Clone)]
