@@ -28,7 +28,7 @@ rows=(
     "\`drop_corner\`, 5 impacts (f64 reference)|configs/drop_corner.toml|newton|f64|200000|"
     "\`floor_friction\`, μ = 0.5|configs/floor_friction.toml|newton|f32|20000000|"
     "S3 with μ = 0.3 on every wall|$out/corner3_mu03.toml|newton|f32|20000|"
-    "S3 \`corner3\`, per-sample export (47 columns, rows/s)|configs/corner3.toml|newton|f32|4000000|--per-sample"
+    "S3 \`corner3\` with \`--per-sample\` (every column; rows/s, whole command)|configs/corner3.toml|newton|f32|4000000|--per-sample"
 )
 
 # samples/s of one run: SCENE LAW PRECISION SAMPLES [FLAGS...]
@@ -63,7 +63,8 @@ for s in $(seq "$series"); do
     done
 done
 
-cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
+field() { grep -m1 "^$1" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'; }
+cpu="$(field 'model name'), family $(field 'cpu family') model $(field 'model')"
 simd=$(grep -m1 '^flags' /proc/cpuinfo | tr ' ' '\n' | grep -E '^(avx2|fma|avx512f|avx512vl|avx512bw|avx512dq)$' | sort | paste -sd ' ' -)
 version=$(grep -m1 '^version' Cargo.toml | cut -d'"' -f2)
 commit=$(git rev-parse --short HEAD 2> /dev/null || echo unknown)
@@ -89,7 +90,7 @@ print(f"Measured {date} by `bash benches/now.sh {series}`: impactmc {version} "
       f"summary statistics only unless the row says otherwise; the median of "
       f"{series} interleaved series, each run's figure in brackets.")
 print()
-print("| scene | law | precision | samples/s | runs |")
+print("| scene | law | precision | samples/s | each run, same power of ten |")
 print("|---|---|---|---|---|")
 for i, (label, scene, law, precision, samples, flags) in enumerate(rows):
     rs = rates.get(i, [])

@@ -5,6 +5,7 @@
 //! Contact scenes and drop scenes alike ([`prepare`], then [`run`]); the
 //! command line prints what it returns.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -17,6 +18,7 @@ use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
 use crate::kernel::KernelVariant;
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
 use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
+use crate::output::plots::run_plots;
 use crate::output::samples::{SampleRows, Selection};
 use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
 use crate::output::summary::Summary;
@@ -414,6 +416,31 @@ impl Study {
         }
         staging.write_json("summary.json", &self.summary_json())?;
         files.push("summary.json".into());
+        // The run's figures, per sweep point.
+        let sweep = self.points.len() > 1;
+        for (i, p) in self.points.iter().enumerate() {
+            let suffix = if sweep {
+                format!("-point{i}")
+            } else {
+                String::new()
+            };
+            let plots = run_plots(&p.scene, &p.summary.contacts, &p.result.acc, &suffix)
+                .map_err(|message| OutputError::Plot {
+                    path: dir.join("plots").display().to_string(),
+                    message,
+                })?;
+            for (name, svg) in plots {
+                let name = format!("plots/{name}");
+                let path = dir.join(&name);
+                staging.write(&name, |f| {
+                    f.write_all(svg.as_bytes()).map_err(|source| OutputError::Io {
+                        path: path.display().to_string(),
+                        source,
+                    })
+                })?;
+                files.push(name);
+            }
+        }
         let mut shard_ref = None;
         if let Some(shard) = self.shard {
             files.extend(self.write_shard_state(&mut staging, shard)?);

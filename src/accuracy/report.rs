@@ -314,17 +314,14 @@ impl Ladder {
 /// with the Pareto front (left), and the confidence-interval half-width
 /// against wall time with its 1/√N line (right). SVG text needs no font
 /// files (plotters' SVG backend writes `<text>` elements).
+/// Drawn with the run folders' plotting code ([`crate::output::plots`]).
 pub fn plot_svg(ladder: &Ladder) -> Result<String, String> {
-    let mut svg = String::new();
-    draw(ladder, &mut svg)?;
-    Ok(svg)
+    crate::output::plots::svg((1400, 640), |root| draw(ladder, root))
 }
 
-fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
+fn draw(ladder: &Ladder, root: &crate::output::plots::Area) -> Result<(), String> {
     use plotters::prelude::*;
     let e = |x: &dyn std::fmt::Display| x.to_string();
-    let root = SVGBackend::with_string(svg, (1400, 640)).into_drawing_area();
-    root.fill(&WHITE).map_err(|x| e(&x))?;
     let (left, right) = root.split_horizontally(860);
 
     let pts: Vec<&Rung> = ladder
@@ -563,7 +560,6 @@ fn draw(ladder: &Ladder, svg: &mut String) -> Result<(), String> {
             .draw()
             .map_err(|x| e(&x))?;
     }
-    root.present().map_err(|x| e(&x))?;
     Ok(())
 }
 

@@ -203,7 +203,19 @@ pub struct MachineHead {
 impl ManifestHead {
     /// The header `impactmc inspect` prints for the folder `dir`.
     pub fn text(&self, dir: &std::path::Path) -> String {
-        format!(
+        let plots: Vec<&str> = self
+            .files
+            .iter()
+            .map(String::as_str)
+            .filter(|f| f.starts_with("plots/"))
+            .collect();
+        let tables: Vec<&str> = self
+            .files
+            .iter()
+            .map(String::as_str)
+            .filter(|f| !f.starts_with("plots/"))
+            .collect();
+        let mut text = format!(
             "run folder {}\n  scene {} (seed {}, {} samples per point, {} point(s))\n  impactmc {} ({}), schema {}\n  started {}, finished {}, wall {:.3} s, {} threads on {} ({})\n  files: {}\n",
             dir.display(),
             self.scene.name,
@@ -219,8 +231,12 @@ impl ManifestHead {
             self.threads,
             self.machine.cpu,
             self.machine.hostname,
-            self.files.join(", "),
-        )
+            tables.join(", "),
+        );
+        if !plots.is_empty() {
+            text += &format!("  plots: {}\n", plots.join(", "));
+        }
+        text
     }
 }
 

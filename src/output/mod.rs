@@ -6,6 +6,7 @@
 mod direct;
 pub mod manifest;
 pub mod parquet;
+pub mod plots;
 pub mod samples;
 pub mod shard;
 mod staging;

@@ -49,8 +49,12 @@ pub fn prepare_dir(dir: &Path, force: bool) -> Result<(), OutputError> {
     {
         return Err(OutputError::Exists(dir.display().to_string()));
     }
-    // Temporary files of killed runs (their process is gone) are removed.
-    if let Ok(entries) = fs::read_dir(dir) {
+    // Temporary files of killed runs (their process is gone) are removed,
+    // in the folder and in its plots.
+    for entries in [dir.to_path_buf(), dir.join("plots")]
+        .iter()
+        .filter_map(|d| fs::read_dir(d).ok())
+    {
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
             if let Some(pid) = name
@@ -92,12 +96,18 @@ impl Staging {
         &self.dir
     }
 
-    /// Creates the temporary file for `name`.
+    /// Creates the temporary file for `name`, which may lie in a subfolder
+    /// (`plots/energy_ratio.svg`: the subfolder is created, and the
+    /// temporary file sits in it).
     pub fn create(&mut self, name: &str) -> Result<fs::File, OutputError> {
         let final_path = self.dir.join(name);
-        let tmp = self
-            .dir
-            .join(format!(".{name}.partial-{}", std::process::id()));
+        let parent = final_path.parent().unwrap_or(&self.dir).to_path_buf();
+        fs::create_dir_all(&parent).map_err(io(&parent))?;
+        let file = final_path
+            .file_name()
+            .map(|f| f.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let tmp = parent.join(format!(".{file}.partial-{}", std::process::id()));
         let f = fs::File::create(&tmp).map_err(io(&tmp))?;
         self.files.push((tmp, final_path));
         Ok(f)

@@ -433,7 +433,7 @@ fn run_cli(scene: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> se
         .args(extra)
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    support::assert_succeeded(&o);
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
@@ -482,7 +482,7 @@ fn drop_shards_merge_to_the_single_run() {
         .arg(root.join("merged"))
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    support::assert_succeeded(&o);
     let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(strip_timing(merged), strip_timing(single.clone()));
     assert_eq!(single["drops"]["paper"]["samples"], 5000);

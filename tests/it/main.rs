@@ -23,6 +23,7 @@ mod golden_friction;
 mod kernel_vs_reference;
 mod kubernetes;
 mod physics_invariants;
+mod plots;
 mod readers;
 mod run_cli;
 mod shards;

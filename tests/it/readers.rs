@@ -233,7 +233,7 @@ fn python_readers_rebuild_drop_sequences_from_per_impact_rows() {
             .arg(dir.join("samples.parquet"))
             .output()
             .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        support::assert_succeeded(&o);
         String::from_utf8_lossy(&o.stdout).trim().to_string()
     };
     let per_bounce = query("SELECT count(*) FROM ROWS GROUP BY bounce ORDER BY bounce");

@@ -36,16 +36,6 @@ fn scene(d: &Path, extra: &str) -> PathBuf {
     p
 }
 
-fn ok(out: Output) -> Output {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
 
 const SAMPLES: &str = "40000";
 
@@ -159,7 +149,7 @@ fn shards(scene: &Path, d: &Path, n: u64) -> Vec<PathBuf> {
     (0..n)
         .map(|i| {
             let out = d.join(format!("shard-{i}"));
-            ok(run(scene, &out, &["--shard", &format!("{i}/{n}")]));
+            support::succeeded(run(scene, &out, &["--shard", &format!("{i}/{n}")]));
             out
         })
         .collect()
@@ -169,12 +159,12 @@ fn shards(scene: &Path, d: &Path, n: u64) -> Vec<PathBuf> {
 fn eight_shards_merge_to_the_single_run_bit_for_bit() {
     let d = tmpdir("eight");
     let scene = scene(&d, "");
-    let single = ok(run(&scene, &d.join("single"), &["--threads", "2"]));
+    let single = support::succeeded(run(&scene, &d.join("single"), &["--threads", "2"]));
     let parts = shards(&scene, &d, 8);
     // Any order on the command line.
     let mut given = parts.clone();
     given.reverse();
-    let merged = ok(merge(&given, &d.join("merged"), &[]));
+    let merged = support::succeeded(merge(&given, &d.join("merged"), &[]));
     let want = summary_without_timing(&single.stdout);
     let got = summary_without_timing(&merged.stdout);
     assert_eq!(want["samples"], 40000);
@@ -210,14 +200,14 @@ fn more_shards_than_batches_and_a_sweep_merge_exactly() {
     let text = std::fs::read_to_string(&scene).unwrap()
         + "\n[sweep]\n\"planes.floor.restitution\" = [0.3, 0.6, 0.9]\n";
     std::fs::write(&scene, text).unwrap();
-    let single = ok(run(&scene, &d.join("single"), &[]));
+    let single = support::succeeded(run(&scene, &d.join("single"), &[]));
     let want = summary_without_timing(&single.stdout);
     assert_eq!(want["points"].as_array().unwrap().len(), 3);
     for n in [3u64, 64] {
         let sd = d.join(format!("n{n}"));
         std::fs::create_dir_all(&sd).unwrap();
         let parts = shards(&scene, &sd, n);
-        let merged = ok(merge(&parts, &sd.join("merged"), &[]));
+        let merged = support::succeeded(merge(&parts, &sd.join("merged"), &[]));
         assert_same_summary(
             &summary_without_timing(&merged.stdout),
             &want,
@@ -262,7 +252,7 @@ fn missing_duplicate_and_foreign_shards_are_refused() {
     );
 
     // --allow-partial: merged, marked partial, statistics over 3 shards.
-    let o = ok(merge(&some, &d.join("m3"), &["--allow-partial"]));
+    let o = support::succeeded(merge(&some, &d.join("m3"), &["--allow-partial"]));
     let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let shard2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(parts[2].join("summary.json")).unwrap())
@@ -279,13 +269,13 @@ fn missing_duplicate_and_foreign_shards_are_refused() {
 
     // A shard of another seed, and of another scene.
     let other = d.join("other-seed");
-    ok(run(&scene, &other, &["--shard", "2/4", "--seed", "7"]));
+    support::succeeded(run(&scene, &other, &["--shard", "2/4", "--seed", "7"]));
     let mix = vec![parts[0].clone(), parts[1].clone(), other, parts[3].clone()];
     let o = merge(&mix, &d.join("m4"), &[]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("seed is \"7\""), "{}", stderr(&o));
     let other = d.join("other-precision");
-    ok(run(
+    support::succeeded(run(
         &scene,
         &other,
         &["--shard", "2/4", "--precision", "f64"],
@@ -326,11 +316,11 @@ fn slurm_array_script_run_by_a_loop_then_merged() {
             .unwrap()
     };
     for i in 0..4 {
-        ok(task(i));
+        support::succeeded(task(i));
     }
     // A failed task re-run: same index, same output (it overwrites).
-    ok(task(1));
-    let merged = ok(Command::new("bash")
+    support::succeeded(task(1));
+    let merged = support::succeeded(Command::new("bash")
         .arg(repo("deploy/slurm/impactmc-merge.sbatch"))
         .env("OUT", d.join("shards"))
         .env("MERGED", d.join("merged"))
@@ -338,7 +328,7 @@ fn slurm_array_script_run_by_a_loop_then_merged() {
         .env("MERGE_ARGS", "--format json")
         .output()
         .unwrap());
-    let single = ok(run(&scene, &d.join("single"), &[]));
+    let single = support::succeeded(run(&scene, &d.join("single"), &[]));
     assert_same_summary(
         &summary_without_timing(&merged.stdout),
         &summary_without_timing(&single.stdout),

@@ -125,7 +125,7 @@ fn sharded_study_on_a_real_slurm_cluster() {
         .args(["--samples", SAMPLES, "--out", single.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    support::assert_succeeded(&o);
     let want = summary(&single);
 
     // Every task succeeds: the merge job runs after them.
@@ -213,7 +213,7 @@ fn sharded_drop_study_on_a_real_slurm_cluster() {
         .args(["--samples", samples, "--out", single.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    support::assert_succeeded(&o);
     let want = summary(&single);
     assert_eq!(want["drops"]["newton"]["samples"], 40000);
     let ok = d.join("ok");

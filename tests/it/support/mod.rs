@@ -12,6 +12,24 @@ pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_impactmc"))
 }
 
+/// Fails the test, with the exit code, stdout and stderr, unless the
+/// command succeeded.
+pub fn assert_succeeded(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// [`assert_succeeded`], passing the output on.
+pub fn succeeded(out: std::process::Output) -> std::process::Output {
+    assert_succeeded(&out);
+    out
+}
+
 /// A path inside the repository.
 pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
