@@ -424,19 +424,21 @@ impl Study {
             } else {
                 String::new()
             };
-            let plots = run_plots(&p.scene, &p.summary.contacts, &p.result.acc, &suffix)
-                .map_err(|message| OutputError::Plot {
+            let plots = run_plots(&p.scene, &p.summary.contacts, &p.result.acc, &suffix).map_err(
+                |message| OutputError::Plot {
                     path: dir.join("plots").display().to_string(),
                     message,
-                })?;
+                },
+            )?;
             for (name, svg) in plots {
                 let name = format!("plots/{name}");
                 let path = dir.join(&name);
                 staging.write(&name, |f| {
-                    f.write_all(svg.as_bytes()).map_err(|source| OutputError::Io {
-                        path: path.display().to_string(),
-                        source,
-                    })
+                    f.write_all(svg.as_bytes())
+                        .map_err(|source| OutputError::Io {
+                            path: path.display().to_string(),
+                            source,
+                        })
                 })?;
                 files.push(name);
             }

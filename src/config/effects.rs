@@ -186,7 +186,7 @@ impl Effects {
         planes: &[NamedPlane],
         touching: &[usize],
         drop: bool,
-        tolerance: f64,
+        (tolerance, tight): (f64, f64),
     ) -> Result<Self, Bad> {
         let e = raw.effects.clone().unwrap_or_default();
         let flight = e.flight.unwrap_or(drop);
@@ -267,10 +267,13 @@ impl Effects {
             ));
         }
         let flight_step = positive(&["effects", "flight_step"], e.flight_step, 1e-3)?;
+        // The search stops at contact: a tight length of the scene's own
+        // (`tight`, what the contact tolerance is by default), never above
+        // the contact tolerance, which only says which planes join an impact.
         let toi_tolerance = positive(
             &["effects", "toi_tolerance"],
             e.toi_tolerance,
-            tolerance.max(1e-12),
+            tight.min(tolerance.max(1e-12)),
         )?;
         if toi_tolerance > tolerance.max(1e-12) {
             return Err(bad(

@@ -184,8 +184,9 @@ pub struct RawEffects {
     /// Largest RK4 step of torque-free rotation (s), with
     /// `flight_rotation = "rk4"`. Default 1e-3.
     pub flight_step: Option<f64>,
-    /// Time-of-impact tolerance (m): the advancement stops within it.
-    /// Default: the contact tolerance.
+    /// Time-of-impact tolerance (m): the advancement stops within it of a
+    /// plane. Default: 1e-9 × the scene's length scale (the default contact
+    /// tolerance), never above `contact_tolerance`.
     pub toi_tolerance: Option<f64>,
     /// Longest flight searched for the next impact (s). Default 10.
     pub horizon: Option<f64>,

@@ -291,8 +291,9 @@ impl Scene {
             .iter()
             .map(|p| p.plane.offset().abs())
             .fold(body.length_scale(), f64::max);
+        let tight = DEFAULT_TOLERANCE_RELATIVE * length_scale;
         let tolerance = match raw.contact_tolerance {
-            None => DEFAULT_TOLERANCE_RELATIVE * length_scale,
+            None => tight,
             Some(t) if t.is_finite() && t >= 0.0 => t,
             Some(t) => {
                 return Err(bad(
@@ -302,7 +303,14 @@ impl Scene {
             }
         };
         let orientation = orientation(&raw)?;
-        let effects = Effects::derive(&raw, &body, &planes, &touching, drop.is_some(), tolerance)?;
+        let effects = Effects::derive(
+            &raw,
+            &body,
+            &planes,
+            &touching,
+            drop.is_some(),
+            (tolerance, tight),
+        )?;
         Self::check_laws_with_friction(&laws, &planes, &touching, drop.is_some())?;
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;

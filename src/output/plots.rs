@@ -89,7 +89,9 @@ pub fn lines(
                 .draw_series(LineSeries::new(p.iter().copied(), c.stroke_width(2)))
                 .map_err(err)?
                 .label(name.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
         }
         chart
             .configure_series_labels()
@@ -118,7 +120,13 @@ pub fn grouped_bars(
     let n = categories.len();
     let k = series.len().max(1) as f64;
     let height = (140 + 22 * n as u32 * series.len().max(1) as u32).clamp(360, 1600);
-    let label_width = categories.iter().map(|c| c.chars().count()).max().unwrap_or(4) as u32 * 8 + 20;
+    let label_width = categories
+        .iter()
+        .map(|c| c.chars().count())
+        .max()
+        .unwrap_or(4) as u32
+        * 8
+        + 20;
     svg((1000, height), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 22))
@@ -136,7 +144,9 @@ pub fn grouped_bars(
                 let c = y - 0.5;
                 if c >= 0.0 && (c - c.round()).abs() < 1e-9 {
                     let g = c.round() as usize;
-                    (g < n).then(|| categories[n - 1 - g].clone()).unwrap_or_default()
+                    n.checked_sub(g + 1)
+                        .map(|i| categories[i].clone())
+                        .unwrap_or_default()
                 } else {
                     String::new()
                 }
@@ -194,7 +204,8 @@ fn density(h: &LogHistogram, (lo, hi): (f64, f64), bins: usize) -> Vec<(f64, f64
 
 /// The figures of one run (one sweep point) as `(file name, SVG)`, names
 /// suffixed by `suffix` (`-point3` in a sweep). A figure whose data the
-/// run did not keep (the energy ratio without quantiles) is left out.
+/// run did not keep (the energy ratio without quantiles), or that has
+/// nothing to show (a shard that ran no batch), is left out.
 pub fn run_plots(
     scene: &Scene,
     planes: &[String],
@@ -251,22 +262,29 @@ pub fn run_plots(
             (laws[i].to_string(), v)
         })
         .collect();
+    let drawn = series.iter().any(|(_, v)| v.iter().any(|&x| x > 0.0));
     let what = if acc.drops.is_empty() {
         "planes that took an impulse"
     } else {
         "planes that took an impulse at the first impact"
     };
-    out.push((
-        format!("active_sets{suffix}.svg"),
-        grouped_bars(
-            &title(what),
-            "fraction of samples",
-            &masks.iter().map(|&m| name(m)).collect::<Vec<_>>(),
-            &series,
-        )?,
-    ));
+    if drawn {
+        out.push((
+            format!("active_sets{suffix}.svg"),
+            grouped_bars(
+                &title(what),
+                "fraction of samples",
+                &masks.iter().map(|&m| name(m)).collect::<Vec<_>>(),
+                &series,
+            )?,
+        ));
+    }
 
-    if let Some(first) = acc.drops.first() {
+    if let Some(first) = acc
+        .drops
+        .first()
+        .filter(|d| d.sequences.iter().any(|&c| c > 0))
+    {
         // The most frequent sequences under the first law, at most twelve.
         let mut cells: Vec<(usize, u64)> = first
             .sequences
@@ -287,7 +305,10 @@ pub fn run_plots(
             .enumerate()
             .map(|(i, d)| {
                 let n = d.samples.max(1) as f64;
-                let v = cells.iter().map(|&(c, _)| d.sequences[c] as f64 / n).collect();
+                let v = cells
+                    .iter()
+                    .map(|&(c, _)| d.sequences[c] as f64 / n)
+                    .collect();
                 (laws[i].to_string(), v)
             })
             .collect();

@@ -6,10 +6,9 @@
 
 use crate::support;
 
-use impactmc::config::{load_scene, Overrides, Scene};
+use impactmc::config::{Overrides, Scene};
 use impactmc::engine::{run, RunOptions};
 use impactmc::output::summary::Summary;
-use support::{repo, tmpdir};
 
 /// A shipped scene with text edits, loaded with `samples` and `laws`.
 fn edited(
@@ -18,23 +17,16 @@ fn edited(
     samples: u64,
     laws: &[&str],
 ) -> Result<Scene, String> {
-    let mut text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
-    for (a, b) in edits {
-        assert!(text.contains(a), "{name}: no {a:?}");
-        text = text.replacen(a, b, 1);
-    }
-    let tag = format!("friction-scene-{name}-{}", edits.len());
-    let p = tmpdir(&tag).join("scene.toml");
-    std::fs::write(&p, text).unwrap();
-    load_scene(
-        &p,
+    support::edited_scene(
+        name,
+        edits,
+        &format!("friction-scene-{name}-{}", edits.len()),
         &Overrides {
             samples: Some(samples),
             laws: Some(laws.iter().map(|l| l.to_string()).collect()),
             ..Overrides::default()
         },
     )
-    .map_err(|e| e.to_string())
 }
 
 fn summary(s: &Scene, threads: usize) -> Summary {

@@ -31,3 +31,4 @@ mod slurm;
 mod solve_cli;
 mod stability;
 mod targets_round_alike;
+mod time_of_impact;

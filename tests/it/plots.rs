@@ -30,7 +30,10 @@ fn well_formed_svg(name: &str, text: &str) -> String {
         content.push_str(between);
         content.push(' ');
         let close = rest[open..].find('>').map(|c| open + c).unwrap_or_else(|| {
-            panic!("{name}: unclosed tag at byte {}", text.len() - rest.len() + open)
+            panic!(
+                "{name}: unclosed tag at byte {}",
+                text.len() - rest.len() + open
+            )
         });
         let tag = &rest[open + 1..close];
         rest = &rest[close + 1..];
@@ -42,7 +45,11 @@ fn well_formed_svg(name: &str, text: &str) -> String {
             assert_eq!(top, Some(end.trim()), "{name}: </{end}> closes {top:?}");
             continue;
         }
-        let tag_name = tag.split_whitespace().next().unwrap_or("").trim_end_matches('/');
+        let tag_name = tag
+            .split_whitespace()
+            .next()
+            .unwrap_or("")
+            .trim_end_matches('/');
         assert!(!tag_name.is_empty(), "{name}: empty tag");
         root.get_or_insert(tag_name.to_string());
         if !tag.ends_with('/') {
@@ -86,7 +93,10 @@ fn a_contact_run_draws_its_energy_ratios_and_active_sets() {
     let energy = plot(&out, "energy_ratio.svg");
     let sets = plot(&out, "active_sets.svg");
     for text in [&energy, &sets] {
-        assert!(text.contains("newton") && text.contains("paper"), "a law's legend is missing");
+        assert!(
+            text.contains("newton") && text.contains("paper"),
+            "a law's legend is missing"
+        );
     }
     assert!(energy.contains("T⁺/T⁻"), "energy axis");
     // Every active set the summary reports with a non-zero share is a bar.
@@ -116,7 +126,11 @@ fn a_contact_run_draws_its_energy_ratios_and_active_sets() {
 fn a_drop_run_draws_its_sequences() {
     let d = tmpdir("plots-drop");
     let out = d.join("run");
-    run(&repo("configs/drop_corner.toml"), &out, &["--samples", "3000"]);
+    run(
+        &repo("configs/drop_corner.toml"),
+        &out,
+        &["--samples", "3000"],
+    );
     let seq = plot(&out, "sequences.svg");
     plot(&out, "active_sets.svg");
     let summary: serde_json::Value =
@@ -154,9 +168,16 @@ fn a_sweep_draws_every_point() {
 /// unclosed tag and a bare `&` are refused.
 #[test]
 fn the_svg_check_refuses_broken_files() {
-    for bad in ["<svg><g></svg>", "<svg><text>a</text>", "<svg><text>a & b</text></svg>"] {
+    for bad in [
+        "<svg><g></svg>",
+        "<svg><text>a</text>",
+        "<svg><text>a & b</text></svg>",
+    ] {
         let r = std::panic::catch_unwind(|| well_formed_svg("bad", bad));
         assert!(r.is_err(), "{bad} was accepted");
     }
-    well_formed_svg("good", "<?xml version=\"1.0\"?><svg a=\"1\"><g/><text>a &amp; b</text></svg>");
+    well_formed_svg(
+        "good",
+        "<?xml version=\"1.0\"?><svg a=\"1\"><g/><text>a &amp; b</text></svg>",
+    );
 }

@@ -36,7 +36,6 @@ fn scene(d: &Path, extra: &str) -> PathBuf {
     p
 }
 
-
 const SAMPLES: &str = "40000";
 
 fn run(scene: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -320,14 +319,16 @@ fn slurm_array_script_run_by_a_loop_then_merged() {
     }
     // A failed task re-run: same index, same output (it overwrites).
     support::succeeded(task(1));
-    let merged = support::succeeded(Command::new("bash")
-        .arg(repo("deploy/slurm/impactmc-merge.sbatch"))
-        .env("OUT", d.join("shards"))
-        .env("MERGED", d.join("merged"))
-        .env("IMPACTMC", env!("CARGO_BIN_EXE_impactmc"))
-        .env("MERGE_ARGS", "--format json")
-        .output()
-        .unwrap());
+    let merged = support::succeeded(
+        Command::new("bash")
+            .arg(repo("deploy/slurm/impactmc-merge.sbatch"))
+            .env("OUT", d.join("shards"))
+            .env("MERGED", d.join("merged"))
+            .env("IMPACTMC", env!("CARGO_BIN_EXE_impactmc"))
+            .env("MERGE_ARGS", "--format json")
+            .output()
+            .unwrap(),
+    );
     let single = support::succeeded(run(&scene, &d.join("single"), &[]));
     assert_same_summary(
         &summary_without_timing(&merged.stdout),

@@ -62,6 +62,25 @@ pub fn shipped_scene(name: &str, precision: &str) -> impactmc::config::Scene {
     .expect("shipped scene")
 }
 
+/// A shipped scene (`configs/NAME.toml`) with each `(from, to)` of `edits`
+/// replaced once (every `from` must be there), loaded with `overrides`
+/// from a scratch file tagged `tag`; the error's text if it is refused.
+pub fn edited_scene(
+    name: &str,
+    edits: &[(&str, &str)],
+    tag: &str,
+    overrides: &impactmc::config::Overrides,
+) -> Result<impactmc::config::Scene, String> {
+    let mut text = std::fs::read_to_string(repo(&format!("configs/{name}.toml"))).unwrap();
+    for (a, b) in edits {
+        assert!(text.contains(a), "{name}: no {a:?}");
+        text = text.replacen(a, b, 1);
+    }
+    let p = tmpdir(tag).join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    impactmc::config::load_scene(&p, overrides).map_err(|e| e.to_string())
+}
+
 /// A shipped scene with friction μ on every plane that has none, loaded
 /// with `overrides` from a scratch file tagged `tag`.
 pub fn rough_scene(
