@@ -88,7 +88,7 @@ date = datetime.date.today().isoformat()
 print(f"Measured {date} by `bash benches/now.sh {series}`: impactmc {version} "
       f"(`{commit}`), {cpu} (SIMD: {simd}), {threads} threads, end to end, "
       f"summary statistics only unless the row says otherwise; the median of "
-      f"{series} interleaved series, each run's figure in brackets.")
+      f"{series} interleaved series, each run's figure in the last column.")
 print()
 print("| scene | law | precision | samples/s | each run, same power of ten |")
 print("|---|---|---|---|---|")
