@@ -9,17 +9,9 @@
 # reference and the extra flags.
 #
 # usage: bash benches/friction.sh [SERIES] [SCRATCH_DIR]
-set -euo pipefail
-cd "$(dirname "$0")/.."
 series=${1:-3}
-out=${2:-/tmp/impactmc-friction}
-threads=${THREADS:-2}
-mkdir -p "$out"
-cargo build --release --quiet
-bin=target/release/impactmc
-
-sed 's/^restitution = \(.*\)$/restitution = \1\nfriction = 0.3/' configs/corner3.toml \
-    > "$out/corner3_mu03.toml"
+# shellcheck source=benches/lib.sh
+source "$(dirname "$0")/lib.sh" "${2:-/tmp/impactmc-friction}"
 
 # SCENE LAW PRECISION SAMPLES [FLAGS...]
 one() {

@@ -6,18 +6,9 @@
 # model and its SIMD flags; progress goes to stderr.
 #
 # usage: bash benches/now.sh [SERIES] [SCRATCH_DIR]
-set -euo pipefail
-cd "$(dirname "$0")/.."
 series=${1:-3}
-out=${2:-/tmp/impactmc-now}
-threads=${THREADS:-2}
-mkdir -p "$out"
-cargo build --release --quiet
-bin=target/release/impactmc
-
-# S3 with μ = 0.3 on every wall.
-sed 's/^restitution = \(.*\)$/restitution = \1\nfriction = 0.3/' configs/corner3.toml \
-    > "$out/corner3_mu03.toml"
+# shellcheck source=benches/lib.sh
+source "$(dirname "$0")/lib.sh" "${2:-/tmp/impactmc-now}"
 
 # Each row: LABEL|SCENE|LAW|PRECISION|SAMPLES|EXTRA FLAGS
 rows=(

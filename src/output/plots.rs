@@ -286,14 +286,7 @@ pub fn run_plots(
         .filter(|d| d.sequences.iter().any(|&c| c > 0))
     {
         // The most frequent sequences under the first law, at most twelve.
-        let mut cells: Vec<(usize, u64)> = first
-            .sequences
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|&(_, c)| c > 0)
-            .collect();
-        cells.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+        let mut cells = first.sequences_by_frequency();
         cells.truncate(12);
         let categories: Vec<String> = cells
             .iter()

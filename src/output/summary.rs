@@ -164,15 +164,8 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> serde_json::Value {
     for (name, &c) in ["a", "b", "c"].iter().zip(&a.final_axis_up) {
         up.insert((*name).into(), json!(c as f64 / n));
     }
-    let mut cells: Vec<(usize, u64)> = a
-        .sequences
-        .iter()
-        .copied()
-        .enumerate()
-        .filter(|&(_, c)| c > 0)
-        .collect();
-    cells.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
-    let sequences: Vec<serde_json::Value> = cells
+    let sequences: Vec<serde_json::Value> = a
+        .sequences_by_frequency()
         .into_iter()
         .map(|(cell, c)| {
             json!({

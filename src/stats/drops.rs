@@ -138,6 +138,20 @@ impl DropAcc {
             .fold(0, |cell, &m| cell * base + m)
     }
 
+    /// The sequence cells that some sample reached, with their counts, most
+    /// frequent first (ties by cell).
+    pub fn sequences_by_frequency(&self) -> Vec<(usize, u64)> {
+        let mut cells: Vec<(usize, u64)> = self
+            .sequences
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, c)| c > 0)
+            .collect();
+        cells.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+        cells
+    }
+
     /// The sets of planes of a cell, first impact first, without the empty
     /// sets past the sample's last impact.
     pub fn sequence_masks(&self, mut cell: usize) -> Vec<usize> {

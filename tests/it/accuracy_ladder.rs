@@ -52,11 +52,7 @@ fn accuracy(scene: &std::path::Path, out: &std::path::Path) -> std::process::Out
 fn accuracy_ok(scene: &std::path::Path, out: &std::path::Path) -> String {
     let o = accuracy(scene, out);
     let stdout = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    support::assert_succeeded(&o);
     stdout
 }
 

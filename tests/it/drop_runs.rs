@@ -251,11 +251,7 @@ fn drop_corner_from_the_command_line() {
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::assert_succeeded(&out);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("effects: on [rotational coupling, coupled contacts (LCP), flight]"),
@@ -287,11 +283,7 @@ fn drop_corner_from_the_command_line() {
     assert_eq!(m["effects"]["bounces"], 5);
     // `inspect` reads a drop folder too.
     let out = bin().arg("inspect").arg(&d).output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::assert_succeeded(&out);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("sequences over the first 3 impacts"),

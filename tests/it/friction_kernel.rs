@@ -199,11 +199,7 @@ fn per_sample_rows_carry_the_friction_columns() {
         .arg(&out)
         .output()
         .unwrap();
-    assert!(
-        status.status.success(),
-        "{}",
-        String::from_utf8_lossy(&status.stderr)
-    );
+    support::assert_succeeded(&status);
     let rows = support::read_parquet(&out.join("samples.parquet"));
     let scene = support::shipped_scene("floor_friction", "f32");
     let mut sticking_seen = 0;

@@ -31,10 +31,5 @@ fn kubernetes_job_files_agree() {
         .arg(repo("deploy/kubernetes/impactmc-merge.yaml"))
         .output()
         .unwrap();
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
+    support::assert_succeeded(&o);
 }

@@ -54,11 +54,7 @@ fn python_readers_agree_with_the_run() {
         .arg(&dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::assert_succeeded(&out);
     let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let mean = printed["laws"]["newton"]["groups"]["all"]["stats"]["energy_ratio"]["mean"].clone();
     // Rows: one per (law, group present) in the summary; one per sample.
@@ -179,11 +175,7 @@ fn python_readers_rebuild_drop_sequences_from_per_impact_rows() {
         .arg(&dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::assert_succeeded(&out);
     let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let drop = &printed["drops"]["newton"];
     let bounces = drop["bounces"].as_array().unwrap();
@@ -422,11 +414,7 @@ fn python_readers_read_back_exactly_what_the_run_computed() {
             cmd.args(["--columns", c]);
         }
         let out = cmd.output().unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        support::assert_succeeded(&out);
         let manifest: Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("run/manifest.json")).unwrap())
                 .unwrap();

@@ -134,11 +134,7 @@ fn output_folder_rules_and_json_summary() {
         c.output().unwrap()
     };
     let first = args(&[]);
-    assert!(
-        first.status.success(),
-        "{}",
-        String::from_utf8_lossy(&first.stderr)
-    );
+    support::assert_succeeded(&first);
     let v: serde_json::Value = serde_json::from_slice(&first.stdout).unwrap();
     for key in ["scene", "samples", "seed", "throughput", "laws"] {
         assert!(v.get(key).is_some(), "missing key {key}");
@@ -265,11 +261,7 @@ fn a_killed_run_leaves_no_file_that_looks_complete() {
         .arg(&out_dir)
         .output()
         .unwrap();
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
+    support::assert_succeeded(&ok);
     assert!(
         names(&out_dir).iter().all(|n| !n.contains(".partial-")),
         "{:?}",
@@ -302,11 +294,7 @@ fn samples_file_is_the_same_for_any_thread_count() {
                 .arg(&out_dir)
                 .output()
                 .unwrap();
-            assert!(
-                out.status.success(),
-                "{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
+            support::assert_succeeded(&out);
             std::fs::read(out_dir.join("samples.parquet")).unwrap()
         };
         let (one, two) = (file("1"), file("2"));

@@ -48,11 +48,7 @@ fn paper_example_from_configs_solves() {
         ])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::assert_succeeded(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let contacts = v["contacts"].as_array().unwrap();
     assert_eq!(contacts.len(), 2);
