@@ -1,7 +1,7 @@
 //! Every entry of `tests/data/golden/cases.json`, compared by the rules of
 //! `tests/data/golden/README.md`. The expected values were computed outside
 //! impactmc in 40-digit arithmetic. Also: the copies of the golden files in
-//! the repository are those the maintainers keep beside it.
+//! the repository are those the maintainers keep.
 
 use crate::support;
 
@@ -52,9 +52,9 @@ fn golden_cases_all_laws() {
 }
 
 /// The golden files carried in `tests/data/golden/` are byte for byte the
-/// maintainers' copies, where those are beside the repository. Skipped when
-/// they are not (a bare clone), unless `IMPACTMC_REQUIRE_SHARED` is set, as
-/// `.ci/run` sets it.
+/// maintainers' copies, where `IMPACTMC_SHARED` points at them. Skipped
+/// without it (a user's clone), unless `IMPACTMC_REQUIRE_SHARED` is set, as
+/// `.ci/run` sets both.
 #[test]
 fn copies_match_the_maintained_golden_files() {
     let dir = support::maintained_golden_dir();
@@ -62,7 +62,7 @@ fn copies_match_the_maintained_golden_files() {
         dir.is_some(),
         "IMPACTMC_REQUIRE_SHARED",
         "the maintained golden files",
-        "../shared/golden beside the repository, or IMPACTMC_SHARED",
+        "IMPACTMC_SHARED names the folder that holds golden/",
     ) {
         return;
     }

@@ -6,7 +6,7 @@ use crate::support;
 
 use std::path::Path;
 
-use support::{bin, repo, succeeded, tmpdir};
+use support::{bin, json_file, repo, succeeded, tmpdir};
 
 /// Checks that `text` is well-formed XML with an `<svg>` root: every tag
 /// closed in order, no stray `<` or `&` in text. Returns the text content.
@@ -100,8 +100,7 @@ fn a_contact_run_draws_its_energy_ratios_and_active_sets() {
     }
     assert!(energy.contains("T⁺/T⁻"), "energy axis");
     // Every active set the summary reports with a non-zero share is a bar.
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = json_file(&out.join("summary.json"));
     let all = &summary["laws"]["newton"]["groups"]["all"]["active_sets"];
     let named: Vec<&String> = all
         .as_object()
@@ -133,8 +132,7 @@ fn a_drop_run_draws_its_sequences() {
     );
     let seq = plot(&out, "sequences.svg");
     plot(&out, "active_sets.svg");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = json_file(&out.join("summary.json"));
     let first = summary["drops"]["newton"]["sequences"][0]["sequence"]
         .as_str()
         .expect("the most frequent sequence");
@@ -154,8 +152,7 @@ fn a_sweep_draws_every_point() {
         &out,
         &["--samples", "5000"],
     );
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let manifest = json_file(&out.join("manifest.json"));
     let points = manifest["points"].as_u64().expect("point count") as usize;
     assert!(points > 1);
     for i in 0..points {

@@ -128,15 +128,19 @@ pub fn data_file(rel: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// The maintainers' copy of the golden data (`../shared/golden/` beside the
-/// repository, or `IMPACTMC_SHARED/golden`), if it is there. Only the
-/// drift check reads it; every other test reads [`data_file`].
+/// The maintainers' copy of the golden data, `IMPACTMC_SHARED/golden`, when
+/// that variable names a folder (`.ci/run` sets it). Only the drift check
+/// reads it; every other test reads [`data_file`], and nothing looks beside
+/// the repository on its own.
 pub fn maintained_golden_dir() -> Option<PathBuf> {
-    let root = std::env::var_os("IMPACTMC_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo("../shared"));
-    let dir = root.join("golden");
+    let dir = PathBuf::from(std::env::var_os("IMPACTMC_SHARED")?).join("golden");
     dir.is_dir().then_some(dir)
+}
+
+/// A JSON file of a run folder, parsed.
+pub fn json_file(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// `|a − b| ≤ tol`, with a message naming what was compared.
