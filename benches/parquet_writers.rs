@@ -15,7 +15,7 @@ use arrow_schema::{DataType, Field, Schema};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use impactmc::config::{load_scene, Overrides};
 use impactmc::engine::{run_with_samples, RunOptions};
-use impactmc::output::samples::{sample_columns, Floats, SampleRows};
+use impactmc::output::samples::{Floats, RowLayout, SampleRows};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::file::properties::WriterProperties;
@@ -54,7 +54,11 @@ fn rows() -> Rows {
         ..Default::default()
     };
     run_with_samples(&scene, &opts, Some(&mut sink)).expect("run");
-    let (fnames, inames) = sample_columns(&scene);
+    let RowLayout {
+        floats: fnames,
+        ints: inames,
+        ..
+    } = RowLayout::of(&scene);
     let mut floats = vec![Vec::new(); fnames.len()];
     let mut ints = vec![Vec::new(); inames.len()];
     let mut index = Vec::new();

@@ -12,10 +12,9 @@ use std::time::SystemTime;
 use serde_json::json;
 
 use crate::config::sweep::{plan, Axis};
-use crate::config::{Keep, RawScene};
+use crate::config::RawScene;
 use crate::config::{Overrides, Scene, SceneError};
 use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
-use crate::kernel::KernelVariant;
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
 use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
 use crate::output::plots::run_plots;
@@ -394,25 +393,23 @@ impl Study {
             crate::output::table_metadata(first),
         )?;
         let mut files = vec!["summary.parquet".to_string(), "histograms.parquet".into()];
-        if self.points[0].scene.drop_box().is_some() {
-            let drops: Vec<(PointValues, DropAccs)> = self
-                .points
-                .iter()
-                .map(|p| {
-                    let laws = p.scene.laws().iter().map(|l| l.name());
-                    (p.values.clone(), laws.zip(&p.result.acc.drops).collect())
-                })
-                .collect();
-            let frames = drop_frames(&drops, &first.contacts).map_err(err("bounces.parquet"))?;
-            for (name, mut df) in frames {
-                write_parquet(
-                    &mut staging,
-                    name,
-                    &mut df,
-                    crate::output::table_metadata(first),
-                )?;
-                files.push(name.into());
-            }
+        let drops: Vec<(PointValues, DropAccs)> = self
+            .points
+            .iter()
+            .map(|p| {
+                let laws = p.scene.laws().iter().map(|l| l.name());
+                (p.values.clone(), laws.zip(&p.result.acc.drops).collect())
+            })
+            .collect();
+        let frames = drop_frames(&drops, &first.contacts).map_err(err("bounces.parquet"))?;
+        for (name, mut df) in frames {
+            write_parquet(
+                &mut staging,
+                name,
+                &mut df,
+                crate::output::table_metadata(first),
+            )?;
+            files.push(name.into());
         }
         staging.write_json("summary.json", &self.summary_json())?;
         files.push("summary.json".into());
@@ -494,23 +491,10 @@ pub fn prepare(
 ) -> Result<Prepared, StudyError> {
     let (_, points) = plan(path, overrides)?;
     let scene = &points[0].scene;
-    let drop = scene.drop_box().is_some();
-    let keep = opts.keep;
-    let kernel_line = if drop {
-        "kernel: drop (flight, time of impact and impacts by the f64 reference, per sample)".into()
-    } else {
-        let variant = KernelVariant::of(scene, keep);
-        let kept = if keep == Keep::NONE {
-            String::new()
-        } else {
-            format!(" (kept although not needed: {keep:?})")
-        };
-        format!("kernel: {}{kept}", variant.name())
-    };
     Ok(Prepared {
         name: scene.name().to_string(),
         effects_line: scene.effects().line(),
-        kernel_line,
+        kernel_line: crate::engine::describe(scene, opts.keep),
     })
 }
 

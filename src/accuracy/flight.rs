@@ -6,7 +6,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::config::Scene;
+use crate::config::{DropBox, Scene};
 use crate::physics::Rotation;
 
 use super::*;
@@ -20,13 +20,18 @@ type FirstImpact = (f64, DVec3, DVec3, f64);
 /// against the exact rotation at a tolerance ten times finer than the
 /// finest (the scene's law). Cost: one-thread ns per sample of the first
 /// impact.
-pub fn flight_ladder(scene: &Scene, knobs: Knobs, progress: &mut dyn FnMut(&str)) -> Ladder {
+pub fn flight_ladder(
+    scene: &Scene,
+    start: &DropBox,
+    knobs: Knobs,
+    progress: &mut dyn FnMut(&str),
+) -> Ladder {
     use crate::drop::{first_impact, start_of};
     let law = scene.laws()[0];
     let sampler = crate::sampler::Sampler::new(scene);
     let boxes = crate::sampler::rng::drop_start_rng(scene.seed());
     let starts: Vec<_> = (0..knobs.samples as u64)
-        .map(|i| start_of(scene, &sampler, &boxes, i))
+        .map(|i| start_of(start, &sampler, &boxes, i))
         .collect();
     let fine_tol = knobs
         .toi_tolerances

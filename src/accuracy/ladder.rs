@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use crate::config::{load_scene, parse_law, Overrides, Precision, Scene, SceneError};
+use crate::config::{load_scene, parse_law, Overrides, Placement, Precision, Scene, SceneError};
 use crate::engine::{evaluate_samples, run, RunOptions};
 use crate::physics::{support_point_lagrange, ContactGeometry, Law, Pose, State};
 
@@ -73,8 +73,9 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     let file = path.display().to_string();
     let base = load_scene(path, &Overrides::default())?;
     let knobs = Knobs::from_raw(&file, base.raw())?;
-    if base.drop_box().is_some() {
-        return Ok(flight_ladder(&base, knobs, progress));
+    // The ladder's body by the kind of scene: flights for a drop.
+    if let Placement::Drop(start) = base.placement() {
+        return Ok(flight_ladder(&base, start, knobs, progress));
     }
     let n = knobs.samples;
     let touching = base.touching_planes();

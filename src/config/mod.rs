@@ -12,7 +12,7 @@ mod validate;
 pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAMES};
 pub use raw::*;
 pub use scene::{
-    load_scene, NamedPlane, OrientationDist, Overrides, Precision, Scene, SceneError, VectorDist,
-    DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
+    load_scene, Contact, DropBox, NamedPlane, OrientationDist, Overrides, Placement, Precision,
+    Scene, SceneError, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
 };
 pub use validate::parse_law;

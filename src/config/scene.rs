@@ -96,6 +96,35 @@ pub const DEFAULT_TOLERANCE_RELATIVE: f64 = 1e-9;
 /// keeps every count exact in f64 statistics).
 pub const MAX_SAMPLES: u64 = 1 << 53;
 
+/// Where every sample of a scene starts: decided once, when the scene is
+/// validated. The engine chooses a batch body from it; statistics and rows
+/// that one kind of scene has and the other lacks follow from the
+/// accumulators and columns that body fills (docs/reference.md).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Placement {
+    /// At contact with one to three planes, the impact at t = 0.
+    Contact(Contact),
+    /// Released above the planes, flying until it hits them.
+    Drop(DropBox),
+}
+
+/// A contact placement: the touching planes, and the columns of
+/// `Nᵀ (N Nᵀ)⁻¹` that place the centre.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// Indices of the touching planes, in scene order.
+    pub(super) touching: Vec<usize>,
+    /// X0 = Σ_i offsets[i] · (h_i − e_i) over the touching planes.
+    pub(super) offsets: Vec<DVec3>,
+}
+
+/// A drop placement: the box the centre is released from, uniformly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DropBox {
+    pub low: DVec3,
+    pub high: DVec3,
+}
+
 #[derive(Debug, Clone)]
 pub struct Scene {
     pub(super) name: String,
@@ -107,11 +136,7 @@ pub struct Scene {
     pub(super) batch_size: u64,
     pub(super) body: Ellipsoid,
     pub(super) planes: Vec<NamedPlane>,
-    pub(super) touching: Vec<usize>,
-    /// X0 = Σ_i placement[i] · (h_i − e_i) over the touching planes.
-    pub(super) placement: Vec<DVec3>,
-    /// A drop scene's box of start positions of the centre.
-    pub(super) drop: Option<(DVec3, DVec3)>,
+    pub(super) placement: Placement,
     pub(super) effects: Effects,
     pub(super) orientation: OrientationDist,
     pub(super) velocity: VectorDist,
@@ -160,9 +185,9 @@ impl Scene {
     pub fn name(&self) -> &str {
         &self.name
     }
-    /// The box of start positions of a drop scene.
-    pub fn drop_box(&self) -> Option<(DVec3, DVec3)> {
-        self.drop
+    /// Where the samples start.
+    pub fn placement(&self) -> &Placement {
+        &self.placement
     }
     /// The effects this scene simulates, declared and derived.
     pub fn effects(&self) -> &Effects {
@@ -192,22 +217,34 @@ impl Scene {
     pub fn planes(&self) -> &[NamedPlane] {
         &self.planes
     }
-    /// Indices of the planes the placement makes touch, in scene order.
+    /// Indices of the planes the placement makes touch at the start, in
+    /// scene order (none for a drop).
     pub fn touching(&self) -> &[usize] {
-        &self.touching
+        match &self.placement {
+            Placement::Contact(c) => &c.touching,
+            Placement::Drop(_) => &[],
+        }
     }
     /// The planes whose impulses a run records, in scene order: the
     /// touching planes of a contact scene, every plane of a drop scene.
     pub fn recorded_planes(&self) -> Vec<usize> {
-        if self.drop.is_some() {
-            (0..self.planes.len()).collect()
-        } else {
-            self.touching.clone()
+        match &self.placement {
+            Placement::Contact(c) => c.touching.clone(),
+            Placement::Drop(_) => (0..self.planes.len()).collect(),
+        }
+    }
+    /// The bounces a run records per sample beyond its first impact's
+    /// statistics: `effects.bounces` of a drop, none at contact (its one
+    /// impact is the sample).
+    pub fn recorded_bounces(&self) -> usize {
+        match &self.placement {
+            Placement::Contact(_) => 0,
+            Placement::Drop(_) => self.effects.bounces as usize,
         }
     }
     /// The touching planes themselves, in scene order.
     pub fn touching_planes(&self) -> Vec<Plane> {
-        self.touching
+        self.touching()
             .iter()
             .map(|&i| self.planes[i].plane)
             .collect()
@@ -231,28 +268,29 @@ impl Scene {
     /// solve amplifies rounding (by 1/λ_min of the normals' Gram matrix), so
     /// one step of iterative refinement on the residuals `h_i − e_i − n_i·X0`
     /// brings the distances back to rounding level.
+    ///
+    /// A drop scene has no such centre (its centres are drawn in the box):
+    /// this is the origin there.
     pub fn centre(&self, a: DMat3) -> DVec3 {
+        let Placement::Contact(c) = &self.placement else {
+            return DVec3::ZERO;
+        };
         // At most three touching planes: fixed arrays, no allocation (this
         // runs per sample when a scene has planes outside the placement).
-        let n = self.touching.len();
+        let n = c.touching.len();
         let mut targets = [0.0; 3];
-        for (t, &i) in targets.iter_mut().zip(&self.touching) {
+        for (t, &i) in targets.iter_mut().zip(&c.touching) {
             let p = &self.planes[i].plane;
             let u = a.transpose() * p.normal();
             *t = (self.body.semi_axes() * u).length() - p.offset();
         }
-        let solve = |rhs: &[f64; 3]| -> DVec3 {
-            self.placement
-                .iter()
-                .zip(rhs)
-                .map(|(col, r)| *col * *r)
-                .sum()
-        };
+        let solve =
+            |rhs: &[f64; 3]| -> DVec3 { c.offsets.iter().zip(rhs).map(|(col, r)| *col * *r).sum() };
         let mut x = solve(&targets);
         for _ in 0..2 {
             let mut residual = [0.0; 3];
             for k in 0..n {
-                residual[k] = targets[k] - self.planes[self.touching[k]].plane.normal().dot(x);
+                residual[k] = targets[k] - self.planes[c.touching[k]].plane.normal().dot(x);
             }
             x += solve(&residual);
         }

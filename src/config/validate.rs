@@ -6,8 +6,8 @@ use glam::DVec3;
 
 use crate::config::effects::Effects;
 use crate::config::scene::{
-    NamedPlane, OrientationDist, Precision, Scene, VectorDist, DEFAULT_TOLERANCE_RELATIVE,
-    MAX_SAMPLES,
+    Contact, DropBox, NamedPlane, OrientationDist, Placement, Precision, Scene, VectorDist,
+    DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
 };
 use crate::config::{RawOrientation, RawScene, RawVector};
 use crate::physics::{matrix_from_bryan, Bryan, Ellipsoid, Law, Plane, SymMatrix};
@@ -144,7 +144,7 @@ fn drop_box(
     raw: &RawScene,
     body: &Ellipsoid,
     planes: &[NamedPlane],
-) -> Result<Option<(DVec3, DVec3)>, Bad> {
+) -> Result<Option<DropBox>, Bad> {
     Ok(match &raw.placement.drop {
         None => None,
         Some(d) => {
@@ -197,7 +197,7 @@ fn drop_box(
                     ));
                 }
             }
-            Some((lo, hi))
+            Some(DropBox { low: lo, high: hi })
         }
     })
 }
@@ -280,12 +280,17 @@ impl Scene {
         let body = body(&raw)?;
         let planes = planes(&raw)?;
         let drop = drop_box(&raw, &body, &planes)?;
-        let (touching, placement) = if drop.is_some() {
-            (Vec::new(), Vec::new())
-        } else {
-            let touching = Self::resolve_touching(&raw, &planes)?;
-            let placement = Self::solve_placement(&raw, &planes, &touching)?;
-            (touching, placement)
+        let placement = match drop {
+            Some(b) => Placement::Drop(b),
+            None => {
+                let touching = Self::resolve_touching(&raw, &planes)?;
+                let offsets = Self::solve_placement(&raw, &planes, &touching)?;
+                Placement::Contact(Contact { touching, offsets })
+            }
+        };
+        let touching: &[usize] = match &placement {
+            Placement::Contact(c) => &c.touching,
+            Placement::Drop(_) => &[],
         };
         let length_scale = planes
             .iter()
@@ -307,11 +312,11 @@ impl Scene {
             &raw,
             &body,
             &planes,
-            &touching,
+            touching,
             drop.is_some(),
             (tolerance, tight),
         )?;
-        Self::check_laws_with_friction(&laws, &planes, &touching, drop.is_some())?;
+        Self::check_laws_with_friction(&laws, &planes, touching, drop.is_some())?;
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
         Self::check_ranges(&body, precision, velocity, angular_velocity, length_scale)?;
@@ -329,9 +334,7 @@ impl Scene {
             batch_size,
             body,
             planes,
-            touching,
             placement,
-            drop,
             effects,
             orientation,
             velocity,

@@ -15,7 +15,7 @@
 
 use glam::DVec3;
 
-use crate::config::{Scene, Statistic};
+use crate::config::{DropBox, Scene, Statistic};
 use crate::lanes::Real;
 use crate::output::samples::{DropRow, SampleRows};
 use crate::physics::{
@@ -31,9 +31,9 @@ use crate::stats::Stat;
 /// The start of sample `i`: drawn orientation and velocities, centre
 /// uniform in the drop box (its own stream, so the engine's draws are
 /// unchanged).
-pub fn start_of(scene: &Scene, sampler: &Sampler, boxes: &CounterRng, i: u64) -> Motion {
+pub fn start_of(start: &DropBox, sampler: &Sampler, boxes: &CounterRng, i: u64) -> Motion {
     let (a, v, w) = sampler.reference(i);
-    let (lo, hi) = scene.drop_box().expect("a drop scene");
+    let (lo, hi) = (start.low, start.high);
     let u = DVec3::new(
         f64::uniform(boxes.bits(i, 0)),
         f64::uniform(boxes.bits(i, 1)),
@@ -134,6 +134,7 @@ impl Flight {
 /// What a drop batch needs, built once per run.
 pub struct DropCtx<'a> {
     scene: &'a Scene,
+    start: DropBox,
     sampler: Sampler,
     boxes: CounterRng,
     flight: Flight,
@@ -142,7 +143,7 @@ pub struct DropCtx<'a> {
 }
 
 impl<'a> DropCtx<'a> {
-    pub fn new(scene: &'a Scene, keep: crate::config::Keep) -> Self {
+    pub fn new(scene: &'a Scene, start: DropBox, keep: crate::config::Keep) -> Self {
         let fx = scene.effects();
         let st = if keep.statistics {
             crate::config::Statistics::ALL
@@ -151,6 +152,7 @@ impl<'a> DropCtx<'a> {
         };
         Self {
             scene,
+            start,
             sampler: Sampler::new(scene),
             boxes: crate::sampler::rng::drop_start_rng(scene.seed()),
             flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
@@ -165,7 +167,7 @@ impl<'a> DropCtx<'a> {
         let laws = self.scene.laws();
         let mut firsts = vec![None; laws.len()];
         for i in first..first + count {
-            let start = start_of(self.scene, &self.sampler, &self.boxes, i);
+            let start = start_of(&self.start, &self.sampler, &self.boxes, i);
             for (l, &law) in laws.iter().enumerate() {
                 let mut log = rows.as_deref_mut().map(|r| (r, i, l as u32));
                 firsts[l] =

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 pub use batch::{kernel_block, sample_block};
 pub use evaluate::{evaluate_samples, evaluate_samples_with, SampleOutcome};
 
-use crate::config::{Keep, Scene};
+use crate::config::{DropBox, Keep, Placement, Scene};
 use crate::engine::batch::{run_block, Ctx, Work};
 use crate::engine::pool::Pool;
 use crate::kernel::{Consts, KernelVariant};
@@ -68,6 +68,25 @@ macro_rules! with_kernel {
 }
 pub(crate) use with_kernel;
 
+/// What a run of `scene` will run, as the line the CLI prints first: the
+/// batch body its placement chooses and, at contact, the kernel variant.
+pub fn describe(scene: &Scene, keep: Keep) -> String {
+    match scene.placement() {
+        Placement::Drop(_) => {
+            "kernel: drop (flight, time of impact and impacts by the f64 reference, per sample)"
+                .into()
+        }
+        Placement::Contact(_) => {
+            let kept = if keep == Keep::NONE {
+                String::new()
+            } else {
+                format!(" (kept although not needed: {keep:?})")
+            };
+            format!("kernel: {}{kept}", KernelVariant::of(scene, keep).name())
+        }
+    }
+}
+
 /// Options of a run that do not change its results.
 #[derive(Debug, Clone, Default)]
 pub struct RunOptions {
@@ -81,7 +100,7 @@ pub struct RunOptions {
     /// answers; for measuring what the specialisation saves).
     pub keep: Keep,
     /// The per-sample float columns a sink takes (one flag per column of
-    /// `sample_columns`); the others are not computed. None: all.
+    /// `RowLayout`); the others are not computed. None: all.
     pub sample_floats: Option<Vec<bool>>,
 }
 
@@ -163,15 +182,17 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
 
 /// A drop scene's batches: per sample, the f64 reference flight and
 /// impacts of [`crate::drop`], through the same tree as contact batches.
+#[allow(clippy::too_many_arguments)]
 fn run_drops(
     scene: &Scene,
+    start: DropBox,
     keep: Keep,
     batch_range: std::ops::Range<u64>,
     bar: &indicatif::ProgressBar,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
-    let ctx = crate::drop::DropCtx::new(scene, keep);
+    let ctx = crate::drop::DropCtx::new(scene, start, keep);
     let shape = Shape::of(scene);
     let batch = scene.batch_size();
     let total = scene.samples();
@@ -320,10 +341,12 @@ pub fn run_with_samples(
     }
     let nodes = pool
         .install(|| {
-            if scene.drop_box().is_some() {
-                run_drops(scene, opts.keep, r, &bar, sink, rows)
-            } else {
-                with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
+            // The one choice of a batch body by the kind of scene.
+            match scene.placement() {
+                Placement::Drop(start) => run_drops(scene, *start, opts.keep, r, &bar, sink, rows),
+                Placement::Contact(_) => {
+                    with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
+                }
             }
         })
         .map_err(RunError::Sink)?;

@@ -5,7 +5,7 @@
 
 use glam::{DMat3, DQuat};
 
-use crate::config::{Precision, Scene};
+use crate::config::{Placement, Precision, Scene};
 use crate::kernel::{
     Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, STICKING_SHIFT,
     UNCONVERGED, UNSOLVED,
@@ -93,22 +93,24 @@ impl Selection {
         })
     }
 
-    /// The per-sample selection of a scene: [`sample_columns`] at
-    /// [`float_precision`], and a drop scene's `law` column.
+    /// The per-sample selection of a scene: the columns of its
+    /// [`RowLayout`], with its `law` key where rows are per law.
     pub fn of_scene(scene: &Scene, wanted: Option<&[String]>) -> Result<Self, String> {
-        let (floats, ints) = sample_columns(scene);
-        let drop = scene.drop_box().is_some();
-        // `law`, like `sample`, is a key of a drop scene's rows: always kept.
+        let RowLayout {
+            floats,
+            ints,
+            precision,
+            laws,
+        } = RowLayout::of(scene);
+        // `law`, like `sample`, is a key of rows per law: always kept.
         let wanted: Option<Vec<String>> = wanted.map(|w| {
             w.iter()
-                .filter(|c| !(drop && *c == "law"))
+                .filter(|c| laws.is_empty() || *c != "law")
                 .cloned()
                 .collect()
         });
-        let mut s = Self::new(floats, ints, float_precision(scene), wanted.as_deref())?;
-        if drop {
-            s.laws = scene.laws().iter().map(|l| l.name()).collect();
-        }
+        let mut s = Self::new(floats, ints, precision, wanted.as_deref())?;
+        s.laws = laws;
         Ok(s)
     }
 
@@ -132,7 +134,7 @@ impl Selection {
             .map(|(i, (c, _))| (i, c))
     }
 
-    /// Per float column of [`sample_columns`], whether it is kept (for
+    /// Per float column of [`RowLayout`], whether it is kept (for
     /// [`SampleRows::fill_only`]).
     pub fn float_mask(&self) -> &[bool] {
         &self.keep_float
@@ -149,13 +151,44 @@ impl Selection {
     }
 }
 
-/// The type of a scene's per-sample float columns: the run's precision
-/// (a drop scene runs the f64 reference).
-pub fn float_precision(scene: &Scene) -> Precision {
-    if scene.drop_box().is_some() {
-        Precision::F64
-    } else {
-        scene.precision()
+/// The shape of a scene's per-sample rows, by the batch body its placement
+/// chooses: at contact one row per sample with columns per law, in the
+/// kernel's precision; in a drop one row per impact keyed by `sample`,
+/// `law` and `bounce`, in f64 (the drop body runs the f64 reference).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RowLayout {
+    /// Float column names and integer columns after the keys, in row order.
+    pub floats: Vec<String>,
+    pub ints: Vec<IntColumn>,
+    /// The float columns' type.
+    pub precision: Precision,
+    /// Rows per law: the names the `law` key takes (empty: one row per
+    /// sample).
+    pub laws: Vec<String>,
+}
+
+impl RowLayout {
+    pub fn of(scene: &Scene) -> Self {
+        match scene.placement() {
+            Placement::Contact(_) => {
+                let (floats, ints) = contact_columns(scene);
+                Self {
+                    floats,
+                    ints,
+                    precision: scene.precision(),
+                    laws: Vec::new(),
+                }
+            }
+            Placement::Drop(_) => {
+                let (floats, ints) = drop_columns(scene);
+                Self {
+                    floats,
+                    ints,
+                    precision: Precision::F64,
+                    laws: scene.laws().iter().map(|l| l.name()).collect(),
+                }
+            }
+        }
     }
 }
 
@@ -227,7 +260,7 @@ impl Columns<'_> {
 }
 
 /// Per-sample rows of one batch, column-major, in sample order (the columns
-/// of [`sample_columns`]).
+/// of the [`RowLayout`]).
 #[derive(Debug, Clone)]
 pub struct SampleRows {
     pub index: Vec<u64>,
@@ -254,7 +287,7 @@ impl SampleRows {
     }
 
     /// Fills only the float columns marked true (by position in
-    /// [`sample_columns`]).
+    /// [`RowLayout`]).
     pub fn fill_only(&mut self, filled: &[bool]) {
         assert_eq!(filled.len(), self.filled.len(), "one flag per float column");
         self.filled = filled.into();
@@ -262,8 +295,8 @@ impl SampleRows {
 
     /// Empty rows for a scene's columns.
     pub fn of_scene(scene: &Scene) -> Self {
-        let (f, i) = sample_columns(scene);
-        Self::new(float_precision(scene), f.len(), i.len())
+        let l = RowLayout::of(scene);
+        Self::new(l.precision, l.floats.len(), l.ints.len())
     }
 
     /// Reserves room for `rows` more rows in every column (one allocation
@@ -317,10 +350,7 @@ impl SampleRows {
 /// N·s) and `sliding_speed_LAW_PLANE` (|c⁺_t,i|, m/s), and per law
 /// `sticking_LAW` (u8, bit i: the i-th touching plane ended sticking) and
 /// `friction_flags_LAW` (u8: bit 0 ambiguous, bit 1 unconverged).
-pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
-    if scene.drop_box().is_some() {
-        return drop_columns(scene);
-    }
+fn contact_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     let planes: Vec<&str> = scene
         .touching()
         .iter()
@@ -372,7 +402,7 @@ pub fn sample_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
 }
 
 /// Appends a block's rows (after recomputation) in the order of
-/// [`sample_columns`], column by column (`friction`: the scene's friction
+/// [`RowLayout`], column by column (`friction`: the scene's friction
 /// columns are there).
 pub fn push_rows<T: Real, const N: usize>(
     x: &Inputs<T>,

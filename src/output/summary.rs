@@ -2,7 +2,6 @@
 //! Parquet summary table holds. Built from the merged accumulators only.
 
 use serde::{Deserialize, Serialize};
-use serde_json::Map;
 
 use crate::config::Scene;
 use crate::stats::accumulators::LawAcc;
@@ -16,9 +15,13 @@ use crate::stats::{Moments, Stat};
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct StatSummary {
     pub n: u64,
+    #[serde(deserialize_with = "nan_if_null")]
     pub mean: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     pub ci95: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     pub sd: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     pub min: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub p01: Option<f64>,
@@ -26,8 +29,32 @@ pub struct StatSummary {
     pub median: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub p99: Option<f64>,
+    #[serde(deserialize_with = "nan_if_null")]
     pub max: f64,
 }
+
+/// JSON writes a number that is not finite as null; it reads back as NaN.
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// What a null in a [`Named`] reads as: NaN for numbers, an error for
+/// anything else.
+pub trait FromNull: Sized {
+    fn from_null() -> Option<Self> {
+        None
+    }
+}
+impl FromNull for f64 {
+    fn from_null() -> Option<Self> {
+        Some(f64::NAN)
+    }
+}
+impl FromNull for StatSummary {}
+impl FromNull for GroupSummary {}
+impl FromNull for LawSummary {}
+impl FromNull for PairSummary {}
+impl FromNull for DropSummary {}
 
 impl StatSummary {
     pub fn from_moments(m: &Moments) -> Self {
@@ -46,6 +73,14 @@ impl StatSummary {
         }
     }
 
+    /// Every moment is a number (JSON writes an undefined one, as for an
+    /// empty statistic or a ci95 of one value, as null).
+    pub fn is_defined(&self) -> bool {
+        [self.mean, self.ci95, self.sd, self.min, self.max]
+            .iter()
+            .all(|x| x.is_finite())
+    }
+
     fn from_stat(s: &Stat) -> Self {
         let mut out = Self::from_moments(&s.moments);
         // A statistic whose quantiles were not requested has no histogram.
@@ -58,22 +93,193 @@ impl StatSummary {
     }
 }
 
+/// Values by name, in the order they were added: a JSON object whose keys
+/// are data (plane names, active sets, laws), with typed values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Named<T>(pub Vec<(String, T)>);
+
+impl<T> Default for Named<T> {
+    fn default() -> Self {
+        Self(Vec::new())
+    }
+}
+
+impl<T> Named<T> {
+    pub fn insert(&mut self, name: impl Into<String>, value: T) {
+        self.0.push((name.into(), value));
+    }
+    pub fn get(&self, name: &str) -> Option<&T> {
+        self.0.iter().find(|(k, _)| k == name).map(|(_, v)| v)
+    }
+    pub fn contains_key(&self, name: &str) -> bool {
+        self.get(name).is_some()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+    pub fn iter(&self) -> impl Iterator<Item = (&String, &T)> {
+        self.0.iter().map(|(k, v)| (k, v))
+    }
+    pub fn keys(&self) -> impl Iterator<Item = &String> {
+        self.0.iter().map(|(k, _)| k)
+    }
+}
+
+impl<'de, T: Deserialize<'de> + FromNull> Deserialize<'de> for Named<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Entries<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + FromNull> serde::de::Visitor<'de> for Entries<T> {
+            type Value = Named<T>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an object")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> Result<Named<T>, A::Error> {
+                let mut out = Vec::new();
+                while let Some((k, v)) = m.next_entry::<String, Option<T>>()? {
+                    let v = v.or_else(T::from_null).ok_or_else(|| {
+                        serde::de::Error::custom(format!("{k}: null where a value is needed"))
+                    })?;
+                    out.push((k, v));
+                }
+                Ok(Named(out))
+            }
+        }
+        d.deserialize_map(Entries(std::marker::PhantomData))
+    }
+}
+
+impl<T> std::ops::Index<&str> for Named<T> {
+    type Output = T;
+    fn index(&self, name: &str) -> &T {
+        self.get(name)
+            .unwrap_or_else(|| panic!("no entry named {name:?}"))
+    }
+}
+
+impl<T: Serialize> Serialize for Named<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            m.serialize_entry(k, v)?;
+        }
+        m.end()
+    }
+}
+
+/// One set of samples (all, or one active set): counts, statistics and,
+/// for all samples, the fractions flagged and per active set.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct GroupSummary {
     pub samples: u64,
     pub impacts: u64,
-    pub stats: Map<String, serde_json::Value>,
-    #[serde(default, skip_serializing_if = "Map::is_empty")]
-    pub fractions: Map<String, serde_json::Value>,
-    #[serde(default, skip_serializing_if = "Map::is_empty")]
-    pub fractions_ci95: Map<String, serde_json::Value>,
-    #[serde(default, skip_serializing_if = "Map::is_empty")]
-    pub active_sets: Map<String, serde_json::Value>,
+    pub stats: Named<StatSummary>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub fractions: Named<f64>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub fractions_ci95: Named<f64>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub active_sets: Named<f64>,
 }
 
+impl GroupSummary {
+    /// `fractions[name]`, NaN where the group has none.
+    pub fn fraction(&self, name: &str) -> f64 {
+        self.fractions.get(name).copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// One law: its groups, `all` first, then the active sets present (with
+/// `by_active_set`).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct LawSummary {
-    pub groups: Map<String, serde_json::Value>,
+    pub groups: Named<GroupSummary>,
+}
+
+/// Paired differences `law − laws[0]` over the samples where both impact.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PairSummary {
+    pub energy_ratio: StatSummary,
+    pub omega_after_norm: StatSummary,
+    pub velocity_after_norm: StatSummary,
+    /// Contact scenes: the fraction of samples where one law of the pair
+    /// raises energy_gain and the other does not, by the law that does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub energy_gain_only: Option<Named<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub energy_gain_only_ci95: Option<Named<f64>>,
+}
+
+/// How a drop scene's samples ended, as fractions of its samples.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Endings {
+    #[serde(deserialize_with = "nan_if_null")]
+    pub flew_away: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub came_to_rest: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub bounce_limit: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub unsolved: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub stalled: f64,
+}
+
+/// Which body axis ended closest to vertical, as fractions of the samples.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct AxisUp {
+    #[serde(deserialize_with = "nan_if_null")]
+    pub a: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub b: f64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub c: f64,
+}
+
+/// A sequence of sets of planes hit over a drop's first impacts.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SequenceSummary {
+    pub sequence: String,
+    pub count: u64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub fraction: f64,
+}
+
+/// The k-th impact of a drop, over the samples that reached it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct BounceSummary {
+    pub bounce: usize,
+    pub reached: u64,
+    #[serde(deserialize_with = "nan_if_null")]
+    pub fraction_of_samples: f64,
+    /// By set of planes that took an impulse, of the samples reaching it.
+    pub planes_hit: Named<f64>,
+    pub energy_ratio: StatSummary,
+    pub interval_seconds: StatSummary,
+    pub speed_before: StatSummary,
+    /// By tolerance (metres, `1e-9`): the fraction whose second-nearest
+    /// plane was within it at the impact.
+    pub simultaneous_within_tolerance: Named<f64>,
+    pub energy_gain: u64,
+    pub degenerate: u64,
+}
+
+/// One law's bounces in a drop scene ([`drop_summary`]).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct DropSummary {
+    pub samples: u64,
+    /// By number of impacts: the fraction of samples with that many.
+    pub impacts_per_sample: Named<f64>,
+    #[serde(flatten)]
+    pub endings: Endings,
+    pub final_axis_up: AxisUp,
+    pub sequence_impacts: usize,
+    /// Most frequent first.
+    pub sequences: Vec<SequenceSummary>,
+    pub bounces: Vec<BounceSummary>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -93,16 +299,16 @@ pub struct Summary {
     pub precision: String,
     pub threads: usize,
     pub throughput: Throughput,
-    /// The touching planes, in scene order: the names active sets use.
+    /// The recorded planes, in scene order: the names active sets use.
     pub contacts: Vec<String>,
-    pub laws: Map<String, serde_json::Value>,
+    pub laws: Named<LawSummary>,
     /// `LAW-FIRST`: paired differences against the first law, same samples.
-    #[serde(default, skip_serializing_if = "Map::is_empty")]
-    pub paired: Map<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub paired: Named<PairSummary>,
     /// A drop scene's bounces per law ([`drop_summary`]); `laws` then
     /// describes each sample's first impact.
-    #[serde(default, skip_serializing_if = "Map::is_empty")]
-    pub drops: Map<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub drops: Named<DropSummary>,
 }
 
 /// The name of a sequence of sets of planes hit: `wall_x > floor+wall_y`,
@@ -122,78 +328,73 @@ pub fn sequence_name(masks: &[usize], names: &[String]) -> String {
 /// of the planes hit, energy ratio, interval, speed before, simultaneity),
 /// the number of impacts, how the samples ended, the final axis up and the
 /// sequences of planes hit over the first impacts (most frequent first).
-pub fn drop_summary(a: &DropAcc, names: &[String]) -> serde_json::Value {
-    use serde_json::json;
+pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
     let n = a.samples.max(1) as f64;
-    let bounces: Vec<serde_json::Value> = a
+    let bounces = a
         .bounces
         .iter()
         .enumerate()
         .map(|(k, b)| {
-            let mut sets = Map::new();
+            let of_reached = |c: u64| c as f64 / b.reached.max(1) as f64;
+            let mut planes_hit = Named::default();
             for (mask, &c) in b.sets.iter().enumerate() {
                 if c > 0 {
-                    sets.insert(
-                        active_set_name(mask, names),
-                        json!(c as f64 / b.reached.max(1) as f64),
-                    );
+                    planes_hit.insert(active_set_name(mask, names), of_reached(c));
                 }
             }
-            let mut within = Map::new();
+            let mut within = Named::default();
             for (tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
-                within.insert(
-                    format!("{tol:e}"),
-                    json!(c as f64 / b.reached.max(1) as f64),
-                );
+                within.insert(format!("{tol:e}"), of_reached(c));
             }
-            json!({
-                "bounce": k + 1,
-                "reached": b.reached,
-                "fraction_of_samples": b.reached as f64 / n,
-                "planes_hit": sets,
-                "energy_ratio": json(&StatSummary::from_moments(&b.energy_ratio)),
-                "interval_seconds": json(&StatSummary::from_moments(&b.interval)),
-                "speed_before": json(&StatSummary::from_moments(&b.speed_before)),
-                "simultaneous_within_tolerance": within,
-                "energy_gain": b.energy_gain,
-                "degenerate": b.degenerate,
-            })
+            BounceSummary {
+                bounce: k + 1,
+                reached: b.reached,
+                fraction_of_samples: b.reached as f64 / n,
+                planes_hit,
+                energy_ratio: StatSummary::from_moments(&b.energy_ratio),
+                interval_seconds: StatSummary::from_moments(&b.interval),
+                speed_before: StatSummary::from_moments(&b.speed_before),
+                simultaneous_within_tolerance: within,
+                energy_gain: b.energy_gain,
+                degenerate: b.degenerate,
+            }
         })
         .collect();
-    let mut up = Map::new();
-    for (name, &c) in ["a", "b", "c"].iter().zip(&a.final_axis_up) {
-        up.insert((*name).into(), json!(c as f64 / n));
-    }
-    let sequences: Vec<serde_json::Value> = a
-        .sequences_by_frequency()
-        .into_iter()
-        .map(|(cell, c)| {
-            json!({
-                "sequence": sequence_name(&a.sequence_masks(cell), names),
-                "count": c,
-                "fraction": c as f64 / n,
+    let ended = |e: Ending| a.endings[e as usize] as f64 / n;
+    let up = |k: usize| a.final_axis_up[k] as f64 / n;
+    DropSummary {
+        samples: a.samples,
+        impacts_per_sample: Named(
+            a.impacts
+                .iter()
+                .enumerate()
+                .map(|(k, &c)| (k.to_string(), c as f64 / n))
+                .collect(),
+        ),
+        endings: Endings {
+            flew_away: ended(Ending::FlewAway),
+            came_to_rest: ended(Ending::CameToRest),
+            bounce_limit: ended(Ending::BounceLimit),
+            unsolved: ended(Ending::Unsolved),
+            stalled: ended(Ending::Stalled),
+        },
+        final_axis_up: AxisUp {
+            a: up(0),
+            b: up(1),
+            c: up(2),
+        },
+        sequence_impacts: a.sequence_impacts(),
+        sequences: a
+            .sequences_by_frequency()
+            .into_iter()
+            .map(|(cell, c)| SequenceSummary {
+                sequence: sequence_name(&a.sequence_masks(cell), names),
+                count: c,
+                fraction: c as f64 / n,
             })
-        })
-        .collect();
-    let mut out = Map::new();
-    out.insert("samples".into(), json!(a.samples));
-    out.insert(
-        "impacts_per_sample".into(),
-        json!(a
-            .impacts
-            .iter()
-            .enumerate()
-            .map(|(k, &c)| (k.to_string(), json!(c as f64 / n)))
-            .collect::<Map<_, _>>()),
-    );
-    for (e, &c) in Ending::ALL.iter().zip(&a.endings) {
-        out.insert(e.name().into(), json!(c as f64 / n));
+            .collect(),
+        bounces,
     }
-    out.insert("final_axis_up".into(), json!(up));
-    out.insert("sequence_impacts".into(), json!(a.sequence_impacts()));
-    out.insert("sequences".into(), json!(sequences));
-    out.insert("bounces".into(), json!(bounces));
-    serde_json::Value::Object(out)
 }
 
 /// `+`-joined names of the planes in an active-set mask, in scene order.
@@ -207,12 +408,8 @@ pub fn active_set_name(mask: usize, names: &[String]) -> String {
         .join("+")
 }
 
-fn json<T: Serialize>(x: &T) -> serde_json::Value {
-    serde_json::to_value(x).expect("summary values serialise")
-}
-
 /// Proportion and its 95 % half-width (normal approximation).
-fn proportion(k: u64, n: u64) -> (f64, f64) {
+pub fn proportion(k: u64, n: u64) -> (f64, f64) {
     if n == 0 {
         return (f64::NAN, f64::NAN);
     }
@@ -220,17 +417,17 @@ fn proportion(k: u64, n: u64) -> (f64, f64) {
     (p, 1.96 * (p * (1.0 - p) / n as f64).sqrt())
 }
 
-/// The three headline statistics as a JSON map.
+/// The three headline statistics, by name.
 fn headline(
     energy_ratio: StatSummary,
     omega: StatSummary,
     velocity: StatSummary,
-) -> Map<String, serde_json::Value> {
-    let mut m = Map::new();
-    m.insert("energy_ratio".into(), json(&energy_ratio));
-    m.insert("omega_after_norm".into(), json(&omega));
-    m.insert("velocity_after_norm".into(), json(&velocity));
-    m
+) -> Named<StatSummary> {
+    Named(vec![
+        ("energy_ratio".into(), energy_ratio),
+        ("omega_after_norm".into(), omega),
+        ("velocity_after_norm".into(), velocity),
+    ])
 }
 
 fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSummary {
@@ -242,25 +439,30 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
     for (i, name) in contacts.iter().enumerate() {
         stats.insert(
             format!("impulse_{name}"),
-            json(&StatSummary::from_stat(&acc.impulse[i])),
+            StatSummary::from_stat(&acc.impulse[i]),
         );
         stats.insert(
             format!("rebound_{name}"),
-            json(&StatSummary::from_stat(&acc.rebound[i])),
+            StatSummary::from_stat(&acc.rebound[i]),
         );
         if let Some(fr) = &acc.friction {
             stats.insert(
                 format!("tangential_impulse_{name}"),
-                json(&StatSummary::from_stat(&fr.tangential_impulse[i])),
+                StatSummary::from_stat(&fr.tangential_impulse[i]),
             );
             stats.insert(
                 format!("sliding_speed_{name}"),
-                json(&StatSummary::from_stat(&fr.sliding_speed[i])),
+                StatSummary::from_stat(&fr.sliding_speed[i]),
             );
         }
     }
-    let mut fractions = Map::new();
-    let mut cis = Map::new();
+    let mut fractions = Named::default();
+    let mut cis = Named::default();
+    let mut add = |name: String, k: u64, n: u64| {
+        let (p, ci) = proportion(k, n);
+        fractions.insert(name.clone(), p);
+        cis.insert(name, ci);
+    };
     for (name, k) in [
         ("impacting", acc.impacts),
         ("energy_gain", acc.energy_gain),
@@ -270,9 +472,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         ("recomputed_f64", acc.recomputed),
         ("penetrating", acc.penetrating),
     ] {
-        let (p, ci) = proportion(k, acc.samples);
-        fractions.insert(name.into(), json(&p));
-        cis.insert(name.into(), json(&ci));
+        add(name.into(), k, acc.samples);
     }
     if let Some(fr) = &acc.friction {
         for (name, k) in [
@@ -280,45 +480,36 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             ("unconverged", fr.unconverged),
             ("coupled_fallback", fr.coupled_fallback),
         ] {
-            let (p, ci) = proportion(k, acc.samples);
-            fractions.insert(name.into(), json(&p));
-            cis.insert(name.into(), json(&ci));
+            add(name.into(), k, acc.samples);
         }
         // Of the plane's active contacts, those that end sticking.
         for (i, name) in contacts.iter().enumerate() {
-            let (p, ci) = proportion(fr.sticking[i], fr.active[i]);
-            fractions.insert(format!("sticking_{name}"), json(&p));
-            cis.insert(format!("sticking_{name}"), json(&ci));
+            add(format!("sticking_{name}"), fr.sticking[i], fr.active[i]);
         }
     }
-    let mut active = Map::new();
+    let mut active_sets = Named::default();
     for (mask, &k) in acc.active_sets.iter().enumerate() {
-        active.insert(
+        active_sets.insert(
             active_set_name(mask, contacts),
-            json(&proportion(k, acc.samples).0),
+            proportion(k, acc.samples).0,
         );
     }
-    let mut groups = Map::new();
+    let mut groups = Named::default();
     groups.insert(
-        "all".into(),
-        json(&GroupSummary {
+        "all",
+        GroupSummary {
             samples: acc.samples,
             impacts: acc.impacts,
             stats,
             fractions,
             fractions_ci95: cis,
-            active_sets: active,
-        }),
+            active_sets,
+        },
     );
     for (mask, g) in acc.groups.iter().enumerate() {
         if g.samples == 0 || !by_active_set {
             continue;
         }
-        let s = headline(
-            StatSummary::from_stat(&g.energy_ratio),
-            StatSummary::from_stat(&g.omega_after_norm),
-            StatSummary::from_stat(&g.velocity_after_norm),
-        );
         let name = active_set_name(mask, contacts);
         let key = if name.is_empty() {
             "(none)".to_string()
@@ -327,14 +518,18 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         };
         groups.insert(
             key,
-            json(&GroupSummary {
+            GroupSummary {
                 samples: g.samples,
                 impacts: g.impacts,
-                stats: s,
-                fractions: Map::new(),
-                fractions_ci95: Map::new(),
-                active_sets: Map::new(),
-            }),
+                stats: headline(
+                    StatSummary::from_stat(&g.energy_ratio),
+                    StatSummary::from_stat(&g.omega_after_norm),
+                    StatSummary::from_stat(&g.velocity_after_norm),
+                ),
+                fractions: Named::default(),
+                fractions_ci95: Named::default(),
+                active_sets: Named::default(),
+            },
         );
     }
     LawSummary { groups }
@@ -347,49 +542,56 @@ impl Summary {
             .iter()
             .map(|&i| scene.planes()[i].name.clone())
             .collect();
-        let mut laws = Map::new();
-        for (law, acc) in scene.laws().iter().zip(&result.acc.laws) {
-            let by_set = scene.effects().statistics.by_active_set;
-            laws.insert(law.name(), json(&law_summary(acc, &contacts, by_set)));
-        }
+        let by_set = scene.effects().statistics.by_active_set;
+        let laws = Named(
+            scene
+                .laws()
+                .iter()
+                .zip(&result.acc.laws)
+                .map(|(law, acc)| (law.name(), law_summary(acc, &contacts, by_set)))
+                .collect(),
+        );
         // The samples the accumulators hold: the scene's count, except for
         // a shard's share or a partial merge.
         let samples = result.acc.laws.first().map_or(0, |l| l.samples);
-        let mut paired = Map::new();
+        let mut paired = Named::default();
         let first = scene.laws()[0].name();
         for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
-            let mut m = headline(
-                StatSummary::from_moments(&p.energy_ratio),
-                StatSummary::from_moments(&p.omega_after_norm),
-                StatSummary::from_moments(&p.velocity_after_norm),
-            );
             // Contact scenes: the fraction of samples where one law of the
             // pair raises energy_gain and the other does not.
-            if result.acc.drops.is_empty() {
-                let (mut only, mut cis) = (Map::new(), Map::new());
+            let (only, cis) = if result.acc.drops.is_empty() {
+                let (mut only, mut cis) = (Named::default(), Named::default());
                 for (name, k) in [
                     (law.name(), p.energy_gain_only),
                     (first.clone(), p.first_energy_gain_only),
                 ] {
                     let (f, ci) = proportion(k, samples);
-                    only.insert(name.clone(), json(&f));
-                    cis.insert(name, json(&ci));
+                    only.insert(name.clone(), f);
+                    cis.insert(name, ci);
                 }
-                m.insert("energy_gain_only".into(), serde_json::Value::Object(only));
-                m.insert(
-                    "energy_gain_only_ci95".into(),
-                    serde_json::Value::Object(cis),
-                );
-            }
+                (Some(only), Some(cis))
+            } else {
+                (None, None)
+            };
             paired.insert(
                 format!("{}-{first}", law.name()),
-                serde_json::Value::Object(m),
+                PairSummary {
+                    energy_ratio: StatSummary::from_moments(&p.energy_ratio),
+                    omega_after_norm: StatSummary::from_moments(&p.omega_after_norm),
+                    velocity_after_norm: StatSummary::from_moments(&p.velocity_after_norm),
+                    energy_gain_only: only,
+                    energy_gain_only_ci95: cis,
+                },
             );
         }
-        let mut drops = Map::new();
-        for (law, acc) in scene.laws().iter().zip(&result.acc.drops) {
-            drops.insert(law.name(), drop_summary(acc, &contacts));
-        }
+        let drops = Named(
+            scene
+                .laws()
+                .iter()
+                .zip(&result.acc.drops)
+                .map(|(law, acc)| (law.name(), drop_summary(acc, &contacts)))
+                .collect(),
+        );
         // Drop scenes run the f64 reference per sample.
         let precision = if drops.is_empty() {
             scene.precision().name()
@@ -414,10 +616,9 @@ impl Summary {
         }
     }
 
-    /// `summary.laws[law].groups.all`, typed.
-    pub fn all_group(&self, law: &str) -> Option<GroupSummary> {
-        let v = self.laws.get(law)?.get("groups")?.get("all")?;
-        serde_json::from_value(v.clone()).ok()
+    /// `summary.laws[law].groups.all`.
+    pub fn all_group(&self, law: &str) -> Option<&GroupSummary> {
+        self.laws.get(law)?.groups.get("all")
     }
 
     /// The human-readable table printed by `impactmc run`.
@@ -444,16 +645,11 @@ impl Summary {
                 self.contacts.join(", ")
             );
         }
-        for law in self.laws.keys() {
-            let Some(all) = self.all_group(law) else {
+        for (law, summary) in self.laws.iter() {
+            let Some(all) = summary.groups.get("all") else {
                 continue;
             };
-            let frac = |k: &str| {
-                all.fractions
-                    .get(k)
-                    .and_then(|v| v.as_f64())
-                    .unwrap_or(f64::NAN)
-            };
+            let frac = |k: &str| all.fraction(k);
             let _ = writeln!(
                 s,
                 "\n[{law}] impacts {} of {} ({:.4}); energy_gain {:.2e}, degenerate {:.2e}, jammed {:.2e}, recomputed_f64 {:.2e}, penetrating {:.2e}",
@@ -465,10 +661,7 @@ impl Summary {
                 "  {:<26} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10}",
                 "statistic", "mean", "±95%", "sd", "p01", "median", "p99"
             );
-            for (name, v) in &all.stats {
-                let Ok(st) = serde_json::from_value::<StatSummary>(v.clone()) else {
-                    continue;
-                };
+            for (name, st) in all.stats.iter().filter(|(_, st)| st.is_defined()) {
                 let q = |x: Option<f64>| {
                     x.map(|x| format!("{x:>10.4}"))
                         .unwrap_or_else(|| format!("{:>10}", "-"))
@@ -488,13 +681,7 @@ impl Summary {
             let sets: Vec<String> = all
                 .active_sets
                 .iter()
-                .map(|(k, v)| {
-                    format!(
-                        "{}={:.4}",
-                        if k.is_empty() { "(none)" } else { k },
-                        v.as_f64().unwrap_or(f64::NAN)
-                    )
-                })
+                .map(|(k, v)| format!("{}={v:.4}", if k.is_empty() { "(none)" } else { k }))
                 .collect();
             let _ = writeln!(s, "  active sets: {}", sets.join("  "));
             if all.fractions.contains_key("ambiguous") {
@@ -516,95 +703,73 @@ impl Summary {
                 drop_text(&mut s, d);
             }
         }
-        for (pair, v) in &self.paired {
-            if let Some(er) = v
-                .get("energy_ratio")
-                .and_then(|x| serde_json::from_value::<StatSummary>(x.clone()).ok())
-            {
-                let _ = write!(
-                    s,
-                    "\npaired {pair}: energy_ratio difference {:.6} ± {:.2e} (sd {:.4}, n {})",
-                    er.mean, er.ci95, er.sd, er.n
-                );
-                if let Some(only) = v.get("energy_gain_only").and_then(|x| x.as_object()) {
-                    let parts: Vec<String> = only
-                        .iter()
-                        .map(|(law, f)| {
-                            format!("{law} only {:.2e}", f.as_f64().unwrap_or(f64::NAN))
-                        })
-                        .collect();
-                    let _ = write!(s, "; energy_gain in {}", parts.join(", "));
-                }
-                let _ = writeln!(s);
+        for (pair, p) in self.paired.iter() {
+            let er = &p.energy_ratio;
+            let _ = write!(
+                s,
+                "\npaired {pair}: energy_ratio difference {:.6} ± {:.2e} (sd {:.4}, n {})",
+                er.mean, er.ci95, er.sd, er.n
+            );
+            if let Some(only) = &p.energy_gain_only {
+                let parts: Vec<String> = only
+                    .iter()
+                    .map(|(law, f)| format!("{law} only {f:.2e}"))
+                    .collect();
+                let _ = write!(s, "; energy_gain in {}", parts.join(", "));
             }
+            let _ = writeln!(s);
         }
         s
     }
 }
 
 /// The bounce table of one law's [`drop_summary`].
-fn drop_text(s: &mut String, d: &serde_json::Value) {
+fn drop_text(s: &mut String, d: &DropSummary) {
     use std::fmt::Write;
-    let f = |k: &str| d.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-    let up = |k: &str| {
-        d["final_axis_up"]
-            .get(k)
-            .and_then(|v| v.as_f64())
-            .unwrap_or(f64::NAN)
-    };
+    let (e, up) = (&d.endings, &d.final_axis_up);
     let _ = writeln!(
         s,
         "  ended: flew away {:.4}, came to rest {:.4}, bounce limit {:.4}, unsolved {:.2e}, stalled {:.2e}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
-        f("flew_away"), f("came_to_rest"), f("bounce_limit"), f("unsolved"), f("stalled"),
-        up("a"), up("b"), up("c")
+        e.flew_away, e.came_to_rest, e.bounce_limit, e.unsolved, e.stalled,
+        up.a, up.b, up.c
     );
     let _ = writeln!(
         s,
         "  {:>6} {:>9} {:>21} {:>13} {:>12}  most frequent planes",
         "bounce", "reached", "T+/T- mean ± ci95", "interval (s)", "speed (m/s)"
     );
-    for b in d["bounces"].as_array().into_iter().flatten() {
-        let reached = b["reached"].as_u64().unwrap_or(0);
-        if reached == 0 {
+    for b in &d.bounces {
+        if b.reached == 0 {
             continue;
         }
-        let mean = |k: &str| b[k]["mean"].as_f64().unwrap_or(f64::NAN);
-        let best = b["planes_hit"]
-            .as_object()
-            .and_then(|m| {
-                m.iter()
-                    .max_by(|x, y| x.1.as_f64().partial_cmp(&y.1.as_f64()).expect("fractions"))
-            })
-            .map(|(k, v)| format!("{k} ({:.3})", v.as_f64().unwrap_or(f64::NAN)))
+        let best = b
+            .planes_hit
+            .iter()
+            .max_by(|x, y| x.1.partial_cmp(y.1).expect("fractions"))
+            .map(|(k, v)| format!("{k} ({v:.3})"))
             .unwrap_or_default();
         let _ = writeln!(
             s,
             "  {:>6} {:>9} {:>12.5} ± {:.1e} {:>13.4} {:>12.4}  {best}",
-            b["bounce"].as_u64().unwrap_or(0),
-            reached,
-            mean("energy_ratio"),
-            b["energy_ratio"]["ci95"].as_f64().unwrap_or(f64::NAN),
-            mean("interval_seconds"),
-            mean("speed_before"),
+            b.bounce,
+            b.reached,
+            b.energy_ratio.mean,
+            b.energy_ratio.ci95,
+            b.interval_seconds.mean,
+            b.speed_before.mean,
         );
     }
-    let seqs = d["sequences"].as_array().map(Vec::as_slice).unwrap_or(&[]);
-    let top: Vec<String> = seqs
+    let top: Vec<String> = d
+        .sequences
         .iter()
         .take(5)
-        .map(|q| {
-            format!(
-                "{} {:.4}",
-                q["sequence"].as_str().unwrap_or("?"),
-                q["fraction"].as_f64().unwrap_or(f64::NAN)
-            )
-        })
+        .map(|q| format!("{} {:.4}", q.sequence, q.fraction))
         .collect();
     let _ = writeln!(
         s,
         "  sequences over the first {} impacts (of {}): {}",
-        d["sequence_impacts"],
-        seqs.len(),
+        d.sequence_impacts,
+        d.sequences.len(),
         top.join(";  ")
     );
 }

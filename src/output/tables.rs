@@ -4,7 +4,7 @@
 use polars::prelude::*;
 
 use crate::output::staging::{OutputError, Staging};
-use crate::output::summary::{StatSummary, Summary};
+use crate::output::summary::{proportion, Named, StatSummary, Summary};
 use crate::stats::accumulators::LawAcc;
 
 /// Column name of a swept field: `sweep_` and the path with every run of
@@ -53,11 +53,12 @@ fn stat_units(name: &str) -> &'static str {
     }
 }
 
-/// One (law, contact set) row: its statistics, fractions and their CIs.
-type Row = (
-    std::collections::HashMap<String, StatSummary>,
-    serde_json::Map<String, serde_json::Value>,
-    serde_json::Map<String, serde_json::Value>,
+/// One (law, contact set) row: its statistics (those with every moment
+/// defined), fractions and their CIs.
+type Row<'a> = (
+    std::collections::HashMap<&'a str, &'a StatSummary>,
+    Named<f64>,
+    Named<f64>,
 );
 
 const STAT_FIELDS: [&str; 9] = [
@@ -80,24 +81,19 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut fraction_names: Vec<String> = Vec::new();
     let mut rows: Vec<Row> = Vec::new();
     let mut bounce_col: Vec<Option<u32>> = Vec::new();
-    for (law, lv) in &summary.laws {
-        let Some(groups) = lv.get("groups").and_then(|g| g.as_object()) else {
-            continue;
-        };
-        for (group, gv) in groups {
-            let g: crate::output::summary::GroupSummary = serde_json::from_value(gv.clone())
-                .map_err(|e| PolarsError::ComputeError(format!("summary group: {e}").into()))?;
+    for (law, ls) in summary.laws.iter() {
+        for (group, g) in ls.groups.iter() {
             law_col.push(law.clone());
             group_col.push(group.clone());
             samples.push(g.samples);
             impacts.push(g.impacts);
             let mut stats = std::collections::HashMap::new();
-            for (name, v) in &g.stats {
+            for (name, st) in g.stats.iter() {
                 if !stat_names.contains(name) {
                     stat_names.push(name.clone());
                 }
-                if let Ok(s) = serde_json::from_value::<StatSummary>(v.clone()) {
-                    stats.insert(name.clone(), s);
+                if st.is_defined() {
+                    stats.insert(name.as_str(), st);
                 }
             }
             for name in g.fractions.keys() {
@@ -105,39 +101,35 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                     fraction_names.push(name.clone());
                 }
             }
-            rows.push((stats, g.fractions, g.fractions_ci95));
+            rows.push((stats, g.fractions.clone(), g.fractions_ci95.clone()));
             bounce_col.push(None);
         }
         // A drop scene's bounces: one row each, over the samples reaching it.
-        let bounces = summary.drops.get(law).and_then(|d| d["bounces"].as_array());
+        let bounces = summary.drops.get(law).map(|d| d.bounces.as_slice());
         for b in bounces.into_iter().flatten() {
-            let reached = b["reached"].as_u64().unwrap_or(0);
             law_col.push(law.clone());
             group_col.push("all".into());
-            samples.push(reached);
-            impacts.push(reached);
-            bounce_col.push(b["bounce"].as_u64().map(|k| k as u32));
+            samples.push(b.reached);
+            impacts.push(b.reached);
+            bounce_col.push(Some(b.bounce as u32));
             let mut stats = std::collections::HashMap::new();
-            for name in ["energy_ratio", "interval_seconds", "speed_before"] {
+            for (name, st) in [
+                ("energy_ratio", &b.energy_ratio),
+                ("interval_seconds", &b.interval_seconds),
+                ("speed_before", &b.speed_before),
+            ] {
                 if !stat_names.iter().any(|n| n == name) {
                     stat_names.push(name.into());
                 }
-                if let Ok(st) = serde_json::from_value::<StatSummary>(b[name].clone()) {
-                    stats.insert(name.to_string(), st);
+                if st.is_defined() {
+                    stats.insert(name, st);
                 }
             }
-            let mut fractions = serde_json::Map::new();
-            let mut cis = serde_json::Map::new();
-            for name in ["energy_gain", "degenerate"] {
-                let k = b[name].as_u64().unwrap_or(0);
-                let (p, ci) = if reached == 0 {
-                    (f64::NAN, f64::NAN)
-                } else {
-                    let p = k as f64 / reached as f64;
-                    (p, 1.96 * (p * (1.0 - p) / reached as f64).sqrt())
-                };
-                fractions.insert(name.into(), serde_json::json!(p));
-                cis.insert(name.into(), serde_json::json!(ci));
+            let (mut fractions, mut cis) = (Named::default(), Named::default());
+            for (name, k) in [("energy_gain", b.energy_gain), ("degenerate", b.degenerate)] {
+                let (p, ci) = proportion(k, b.reached);
+                fractions.insert(name, p);
+                cis.insert(name, ci);
             }
             rows.push((stats, fractions, cis));
         }
@@ -159,14 +151,17 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
         for field in STAT_FIELDS {
             let col = format!("{name}_{field}");
             if field == "n" {
-                let v: Vec<Option<u64>> = rows.iter().map(|r| r.0.get(name).map(|s| s.n)).collect();
+                let v: Vec<Option<u64>> = rows
+                    .iter()
+                    .map(|r| r.0.get(name.as_str()).map(|s| s.n))
+                    .collect();
                 cols.push(Column::new(col.into(), v));
                 continue;
             }
             let v: Vec<Option<f64>> = rows
                 .iter()
                 .map(|r| {
-                    r.0.get(name).and_then(|s| match field {
+                    r.0.get(name.as_str()).and_then(|s| match field {
                         "mean" => Some(s.mean),
                         "ci95" => Some(s.ci95),
                         "sd" => Some(s.sd),
@@ -184,12 +179,12 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     for name in &fraction_names {
         let v: Vec<Option<f64>> = rows
             .iter()
-            .map(|r| r.1.get(name).and_then(|x| x.as_f64()))
+            .map(|r| r.1.get(name).copied().filter(|x| x.is_finite()))
             .collect();
         cols.push(Column::new(format!("fraction_{name}").into(), v));
         let v: Vec<Option<f64>> = rows
             .iter()
-            .map(|r| r.2.get(name).and_then(|x| x.as_f64()))
+            .map(|r| r.2.get(name).copied().filter(|x| x.is_finite()))
             .collect();
         cols.push(Column::new(format!("fraction_{name}_ci95").into(), v));
     }
@@ -344,15 +339,9 @@ pub fn schema_metadata() -> KeyValueMetadata {
 /// Key-value metadata: units of every statistic and the schema version.
 pub fn table_metadata(summary: &Summary) -> KeyValueMetadata {
     let mut units = serde_json::Map::new();
-    if let Some(all) = summary
-        .laws
-        .values()
-        .next()
-        .and_then(|l| l.get("groups"))
-        .and_then(|g| g.get("all"))
-    {
-        if let Some(stats) = all.get("stats").and_then(|s| s.as_object()) {
-            for name in stats.keys() {
+    if let Some((_, first)) = summary.laws.iter().next() {
+        if let Some(all) = first.groups.get("all") {
+            for name in all.stats.keys() {
                 units.insert(name.clone(), stat_units(name).into());
             }
         }
@@ -401,8 +390,12 @@ pub type DropAccs<'a> = Vec<(String, &'a crate::stats::drops::DropAcc)>;
 pub fn drop_frames(
     points: &[(PointValues, DropAccs<'_>)],
     planes: &[String],
-) -> PolarsResult<[(&'static str, DataFrame); 4]> {
+) -> PolarsResult<Vec<(&'static str, DataFrame)>> {
     use crate::output::summary::{active_set_name, sequence_name};
+    // Bounce tables exist where bounce accumulators do (drop scenes).
+    if points.iter().all(|(_, laws)| laws.is_empty()) {
+        return Ok(Vec::new());
+    }
     use crate::stats::drops::SIMULTANEITY_TOLERANCES;
     let mut out: [Vec<DataFrame>; 4] = Default::default();
     for (i, (values, laws)) in points.iter().enumerate() {
@@ -518,7 +511,7 @@ pub fn drop_frames(
         .into_iter()
         .map(|dfs| stack_points(dfs.into_iter().map(Ok)));
     let mut next = || frames.next().expect("four tables");
-    Ok([
+    Ok(vec![
         (names[0], next()?),
         (names[1], next()?),
         (names[2], next()?),

@@ -117,15 +117,10 @@ pub struct Shape {
 
 impl Shape {
     pub fn of(scene: &Scene) -> Self {
-        let drop = scene.drop_box().is_some();
         Self {
             laws: scene.laws().len(),
             contacts: scene.recorded_planes().len(),
-            bounces: if drop {
-                scene.effects().bounces as usize
-            } else {
-                0
-            },
+            bounces: scene.recorded_bounces(),
             friction: scene.effects().friction,
         }
     }

@@ -312,7 +312,10 @@ fn flight_rungs_converge_with_step_and_tolerance() {
     knobs.samples = 300;
     knobs.flight_steps = vec![4e-2, 2e-2, 1e-2, 5e-3];
     knobs.toi_tolerances = vec![1e-4, 1e-6, 1e-8];
-    let ladder = impactmc::accuracy::flight_ladder(&s, knobs, &mut |_| {});
+    let impactmc::config::Placement::Drop(start) = s.placement() else {
+        panic!("drop_corner is a drop scene");
+    };
+    let ladder = impactmc::accuracy::flight_ladder(&s, start, knobs, &mut |_| {});
     let errs = |family: &str| -> Vec<f64> {
         ladder
             .rungs

@@ -30,7 +30,7 @@ fn first_bounce(s: &Scene) -> Value {
     )
     .expect("run");
     let summary = Summary::new(s, &r);
-    summary.drops["newton"]["bounces"][0].clone()
+    serde_json::to_value(&summary.drops["newton"].bounces[0]).expect("serialisable")
 }
 
 fn share(b: &Value, key: &str, cell: &str) -> f64 {
