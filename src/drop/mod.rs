@@ -173,18 +173,14 @@ impl<'a> DropCtx<'a> {
                 firsts[l] =
                     self.simulate(law, start, &mut acc.laws[l], &mut acc.drops[l], &mut log);
             }
-            if let Some(base) = firsts[0] {
-                for (pair, other) in acc.pairs.iter_mut().zip(&firsts[1..]) {
-                    if let Some(o) = other {
-                        push_pair(pair, base, *o);
-                    }
-                }
+            for (pair, other) in acc.pairs.iter_mut().zip(&firsts[1..]) {
+                push_pair(pair, firsts[0].as_ref(), other.as_ref());
             }
         }
     }
 
-    /// One sample under one law. Returns the first impact's energy ratio,
-    /// |ω⁺| and |v⁺| (none without an impact).
+    /// One sample under one law. Returns its first impact (none without
+    /// one).
     fn simulate(
         &self,
         law: Law,
@@ -192,7 +188,7 @@ impl<'a> DropCtx<'a> {
         la: &mut LawAcc,
         acc: &mut DropAcc,
         rows: &mut Option<(&mut SampleRows, u64, u32)>,
-    ) -> Option<[f64; 3]> {
+    ) -> Option<First> {
         let scene = self.scene;
         let fx = scene.effects();
         let body = scene.body();
@@ -241,7 +237,10 @@ impl<'a> DropCtx<'a> {
             }
             if impacts == 0 {
                 t0 = o.energy_before;
-                first = Some(self.record_first(la, &hit.motion, &o, mask, coupled_fallback));
+                first = Some(First {
+                    values: self.record_first(la, &hit.motion, &o, mask, coupled_fallback),
+                    energy_gain: o.flags.energy_gain,
+                });
             }
             if let Some(slot) = masks.get_mut(impacts) {
                 *slot = mask;
@@ -394,16 +393,33 @@ impl<'a> DropCtx<'a> {
                     -c.normal_velocity_after / c.normal_velocity_before,
                     Statistic::Rebound,
                 );
+                la.restitution[i].push(c.normal_velocity_after, -c.normal_velocity_before);
             }
         }
         values
     }
 }
 
-fn push_pair(p: &mut PairAcc, base: [f64; 3], other: [f64; 3]) {
-    p.energy_ratio.push(other[0] - base[0]);
-    p.omega_after_norm.push(other[1] - base[1]);
-    p.velocity_after_norm.push(other[2] - base[2]);
+/// A sample's first impact under one law, as its pair statistics need it.
+#[derive(Debug, Clone, Copy)]
+struct First {
+    /// Energy ratio, |ω⁺| and |v⁺|.
+    values: [f64; 3],
+    energy_gain: bool,
+}
+
+/// One sample's paired statistics, `other − base`, as a contact block
+/// records them: differences where both laws impact, and the samples where
+/// only one of the two raises `energy_gain`.
+fn push_pair(p: &mut PairAcc, base: Option<&First>, other: Option<&First>) {
+    let gains = |f: Option<&First>| f.is_some_and(|f| f.energy_gain);
+    p.energy_gain_only += (gains(other) && !gains(base)) as u64;
+    p.first_energy_gain_only += (gains(base) && !gains(other)) as u64;
+    if let (Some(b), Some(o)) = (base, other) {
+        p.energy_ratio.push(o.values[0] - b.values[0]);
+        p.omega_after_norm.push(o.values[1] - b.values[1]);
+        p.velocity_after_norm.push(o.values[2] - b.values[2]);
+    }
 }
 
 /// The second-smallest of the planes' distances (none with one plane).

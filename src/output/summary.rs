@@ -7,7 +7,7 @@ use crate::config::Scene;
 use crate::stats::accumulators::LawAcc;
 use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
 use crate::stats::RunResult;
-use crate::stats::{Moments, Stat};
+use crate::stats::{Moments, RatioOfSums, Stat};
 
 /// Mean, spread and quantiles of one statistic. Quantiles are absent where
 /// only moments are kept (statistics not listed in `[statistics]
@@ -70,6 +70,26 @@ impl StatSummary {
             median: None,
             p99: None,
             max: nan_if_empty(m.max()),
+        }
+    }
+
+    /// A ratio of sums: `n` pairs, `mean` the ratio, `ci95` its
+    /// delta-method half-width, `sd` that of its linearised terms; `min`
+    /// and `max` those of the per-pair ratios (`per_pair`), between which
+    /// the ratio lies (it is their mean weighted by the denominators).
+    pub fn from_ratio(r: &RatioOfSums, per_pair: &Moments) -> Self {
+        let n = r.count();
+        let nan_if_empty = |x: f64| if n == 0 { f64::NAN } else { x };
+        Self {
+            n,
+            mean: r.ratio(),
+            ci95: r.ci95(),
+            sd: r.sd(),
+            min: nan_if_empty(per_pair.min()),
+            p01: None,
+            median: None,
+            p99: None,
+            max: nan_if_empty(per_pair.max()),
         }
     }
 
@@ -205,8 +225,9 @@ pub struct PairSummary {
     pub energy_ratio: StatSummary,
     pub omega_after_norm: StatSummary,
     pub velocity_after_norm: StatSummary,
-    /// Contact scenes: the fraction of samples where one law of the pair
-    /// raises energy_gain and the other does not, by the law that does.
+    /// The fraction of samples where one law of the pair raises
+    /// energy_gain and the other does not, by the law that does (absent
+    /// from summaries written before 0.11.0 for drop scenes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy_gain_only: Option<Named<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -445,6 +466,10 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             format!("rebound_{name}"),
             StatSummary::from_stat(&acc.rebound[i]),
         );
+        stats.insert(
+            format!("restitution_{name}"),
+            StatSummary::from_ratio(&acc.restitution[i], &acc.rebound[i].moments),
+        );
         if let Some(fr) = &acc.friction {
             stats.insert(
                 format!("tangential_impulse_{name}"),
@@ -557,30 +582,25 @@ impl Summary {
         let mut paired = Named::default();
         let first = scene.laws()[0].name();
         for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
-            // Contact scenes: the fraction of samples where one law of the
-            // pair raises energy_gain and the other does not.
-            let (only, cis) = if result.acc.drops.is_empty() {
-                let (mut only, mut cis) = (Named::default(), Named::default());
-                for (name, k) in [
-                    (law.name(), p.energy_gain_only),
-                    (first.clone(), p.first_energy_gain_only),
-                ] {
-                    let (f, ci) = proportion(k, samples);
-                    only.insert(name.clone(), f);
-                    cis.insert(name, ci);
-                }
-                (Some(only), Some(cis))
-            } else {
-                (None, None)
-            };
+            // The fraction of samples where one law of the pair raises
+            // energy_gain (at a drop's first impact) and the other does not.
+            let (mut only, mut cis) = (Named::default(), Named::default());
+            for (name, k) in [
+                (law.name(), p.energy_gain_only),
+                (first.clone(), p.first_energy_gain_only),
+            ] {
+                let (f, ci) = proportion(k, samples);
+                only.insert(name.clone(), f);
+                cis.insert(name, ci);
+            }
             paired.insert(
                 format!("{}-{first}", law.name()),
                 PairSummary {
                     energy_ratio: StatSummary::from_moments(&p.energy_ratio),
                     omega_after_norm: StatSummary::from_moments(&p.omega_after_norm),
                     velocity_after_norm: StatSummary::from_moments(&p.velocity_after_norm),
-                    energy_gain_only: only,
-                    energy_gain_only_ci95: cis,
+                    energy_gain_only: Some(only),
+                    energy_gain_only_ci95: Some(cis),
                 },
             );
         }
@@ -592,12 +612,11 @@ impl Summary {
                 .map(|(law, acc)| (law.name(), drop_summary(acc, &contacts)))
                 .collect(),
         );
-        // Drop scenes run the f64 reference per sample.
-        let precision = if drops.is_empty() {
-            scene.precision().name()
-        } else {
-            "f64"
-        };
+        // The precision the values were computed in (a drop's body runs
+        // the f64 reference), as the per-sample rows have it.
+        let precision = crate::output::samples::RowLayout::of(scene)
+            .precision
+            .name();
         Summary {
             scene: scene.name().to_string(),
             samples,
@@ -661,7 +680,13 @@ impl Summary {
                 "  {:<26} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10}",
                 "statistic", "mean", "±95%", "sd", "p01", "median", "p99"
             );
-            for (name, st) in all.stats.iter().filter(|(_, st)| st.is_defined()) {
+            // The per-contact rebound is heavy-tailed where contacts graze
+            // (its mean and sd are then no guide): printed where its
+            // quantiles are kept, else `restitution` stands for it.
+            let shown = |name: &str, st: &StatSummary| {
+                st.is_defined() && (!name.starts_with("rebound_") || st.median.is_some())
+            };
+            for (name, st) in all.stats.iter().filter(|(n, st)| shown(n, st)) {
                 let q = |x: Option<f64>| {
                     x.map(|x| format!("{x:>10.4}"))
                         .unwrap_or_else(|| format!("{:>10}", "-"))

@@ -6,7 +6,7 @@
 
 use crate::config::Scene;
 use crate::stats::drops::DropAcc;
-use crate::stats::{LogHistogram, Moments, Stat};
+use crate::stats::{LogHistogram, Moments, RatioOfSums, Stat};
 
 /// Statistics of the samples in one active-contact set.
 #[derive(Debug, Clone, Default)]
@@ -41,6 +41,8 @@ pub struct LawAcc {
     pub impulse: Vec<Stat>,
     /// Per touching plane, `−v_n⁺/v_n⁻` over samples where it approached.
     pub rebound: Vec<Stat>,
+    /// Per touching plane, `Σ v_n⁺ / Σ |v_n⁻|` over the same samples.
+    pub restitution: Vec<RatioOfSums>,
     /// Per active set: moments of the three post-impact statistics.
     pub groups: Vec<GroupAcc>,
     /// Friction statistics, in scenes with friction only.
@@ -143,6 +145,7 @@ impl LawAcc {
             velocity_after_norm: Stat::default(),
             impulse: vec![Stat::default(); contacts],
             rebound: vec![Stat::default(); contacts],
+            restitution: vec![RatioOfSums::default(); contacts],
             groups: vec![GroupAcc::default(); 1 << contacts],
             friction: friction.then(|| FrictionAcc::new(contacts)),
         }
@@ -288,6 +291,15 @@ impl RunAcc {
             }
             for (i, s) in l.rebound.iter_mut().enumerate() {
                 stat(f, &|| format!("{}.rebound.{i}", law()), s);
+            }
+            for (i, r) in l.restitution.iter_mut().enumerate() {
+                let parts = [("x", &mut r.x), ("y", &mut r.y), ("sum", &mut r.sum)];
+                for (part, m) in parts {
+                    f(
+                        &|| format!("{}.restitution.{i}.{part}", law()),
+                        Slot::Moments(m),
+                    );
+                }
             }
             if let Some(fr) = &mut l.friction {
                 let friction = || format!("{}.friction", law());

@@ -27,6 +27,10 @@ pub(crate) struct Derived<T, const N: usize> {
     impacting: [T; BLOCK],
     lambda: [[T; BLOCK]; N],
     rebound: [[T; BLOCK]; N],
+    /// v_n⁺, |v_n⁻| and their sum where the contact approached (0 elsewhere).
+    vn_out: [[T; BLOCK]; N],
+    vn_in: [[T; BLOCK]; N],
+    vn_sum: [[T; BLOCK]; N],
     approaching: [[T; BLOCK]; N],
     active: [u32; BLOCK],
     mask: [T; BLOCK],
@@ -41,6 +45,9 @@ impl<T: Real, const N: usize> Derived<T, N> {
             impacting: [T::ZERO; BLOCK],
             lambda: [[T::ZERO; BLOCK]; N],
             rebound: [[T::ZERO; BLOCK]; N],
+            vn_out: [[T::ZERO; BLOCK]; N],
+            vn_in: [[T::ZERO; BLOCK]; N],
+            vn_sum: [[T::ZERO; BLOCK]; N],
             approaching: [[T::ZERO; BLOCK]; N],
             active: [0; BLOCK],
             mask: [T::ZERO; BLOCK],
@@ -134,8 +141,16 @@ fn derive<T: Real, const N: usize>(
             let toward = valid & (approaching & (1 << i) != 0);
             d.approaching[i][s] = w01(toward);
             d.lambda[i][s] = select(impacting, out.lambda[i][s], T::ZERO);
-            let r = -out.vn_after[i][s] / geo.vn[i][s];
+            let (after, before) = (out.vn_after[i][s], geo.vn[i][s]);
+            let r = -after / before;
             d.rebound[i][s] = select(toward, r, T::ZERO);
+            let (x, y) = (
+                select(toward, after, T::ZERO),
+                select(toward, -before, T::ZERO),
+            );
+            d.vn_out[i][s] = x;
+            d.vn_in[i][s] = y;
+            d.vn_sum[i][s] = x + y;
         }
     }
     n
@@ -267,6 +282,12 @@ fn block_stats_lanes<T: Real, const N: usize>(
                     .moments
                     .push_weighted(&d.rebound[i], &d.approaching[i]);
             }
+            let r = &mut la.restitution[i];
+            Moments::push_weighted_many(
+                [&mut r.x, &mut r.y, &mut r.sum],
+                [&d.vn_out[i], &d.vn_in[i], &d.vn_sum[i]],
+                &d.approaching[i],
+            );
         }
         if plan.by_set {
             block_stats_by_set(la, d, count, plan, &mut bins);

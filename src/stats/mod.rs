@@ -10,7 +10,7 @@ mod moments;
 pub mod tree;
 
 pub use histogram::{bin_edges, scatter, LogHistogram, BINS, MAX_EXP, MIN_EXP, SUB_BITS};
-pub use moments::Moments;
+pub use moments::{Moments, RatioOfSums};
 
 use crate::lanes::Real;
 use accumulators::RunAcc;

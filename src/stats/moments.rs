@@ -270,3 +270,61 @@ impl Moments {
         (c.n, c.mean, c.m2)
     }
 }
+
+/// A ratio of sums `Σx / Σy` over pairs with `y > 0`, with the error of a
+/// ratio estimator (delta method): `ci95 = 1.96 · sd(z) / √n` with
+/// `z = (x − R·y) / ȳ`. The moments of `x`, `y` and `x + y` give the
+/// covariance. Mergeable like its moments.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RatioOfSums {
+    pub x: Moments,
+    pub y: Moments,
+    pub sum: Moments,
+}
+
+impl RatioOfSums {
+    pub fn push(&mut self, x: f64, y: f64) {
+        self.x.push(x);
+        self.y.push(y);
+        self.sum.push(x + y);
+    }
+
+    pub fn count(&self) -> u64 {
+        self.y.count()
+    }
+
+    /// `Σx / Σy` (NaN with no pair).
+    pub fn ratio(&self) -> f64 {
+        if self.count() == 0 {
+            return f64::NAN;
+        }
+        self.x.mean() / self.y.mean()
+    }
+
+    /// The standard deviation of `z = (x − R·y)/ȳ`, the per-pair term whose
+    /// mean's error is the ratio's: `√(var x − 2R cov + R² var y) / ȳ`.
+    pub fn sd(&self) -> f64 {
+        if self.count() < 2 {
+            return f64::NAN;
+        }
+        let (vx, vy, vs) = (
+            self.x.sd().powi(2),
+            self.y.sd().powi(2),
+            self.sum.sd().powi(2),
+        );
+        let cov = 0.5 * (vs - vx - vy);
+        let r = self.ratio();
+        // A ratio that is the same in every pair (a constant restitution)
+        // has var z = 0 up to rounding, which may come out negative.
+        (vx - 2.0 * r * cov + r * r * vy).max(0.0).sqrt() / self.y.mean()
+    }
+
+    pub fn ci95(&self) -> f64 {
+        let n = self.count();
+        if n < 2 {
+            f64::NAN
+        } else {
+            1.96 * self.sd() / (n as f64).sqrt()
+        }
+    }
+}

@@ -231,3 +231,36 @@ fn paired_summary_counts_where_newton_gains_energy_and_stronge_does_not() {
         "{text}"
     );
 }
+
+/// A drop's pairs count energy_gain at the first impact as a contact
+/// scene's do: a thin rough rod dropped on the floor gains energy under
+/// `newton` in many first impacts and never under `stronge`, and the two
+/// one-sided counts differ by exactly the difference of the laws' counts.
+#[test]
+fn a_drops_pairs_count_where_one_law_gains_energy_at_the_first_impact() {
+    let s = edited(
+        "drop_dice",
+        &[
+            ("restitution = 0.6", "restitution = 1.0"),
+            ("friction = 0.3", "friction = 1.0"),
+            (
+                "semi_axes = [0.03, 0.02, 0.01]",
+                "semi_axes = [0.01, 0.01, 0.1]",
+            ),
+            ("bounces = 20", "bounces = 2"),
+        ],
+        4_000,
+        &["newton", "stronge"],
+    )
+    .unwrap();
+    let r = summary(&s, 2);
+    let gain = |law: &str| r.all_group(law).unwrap().fractions["energy_gain"];
+    let only = r.paired["stronge-newton"]
+        .energy_gain_only
+        .as_ref()
+        .expect("a drop's pairs count energy_gain");
+    assert_eq!(gain("stronge"), 0.0);
+    assert!(gain("newton") > 0.02, "newton gains in {}", gain("newton"));
+    assert_eq!(only["stronge"], 0.0);
+    assert!((only["newton"] - only["stronge"] - (gain("newton") - gain("stronge"))).abs() < 1e-12);
+}

@@ -59,6 +59,11 @@ fn law_line(key: &str, a: &LawAcc) -> String {
     for (i, st) in a.rebound.iter().enumerate() {
         l += &moments(&format!("rebound{i}"), &st.moments);
     }
+    for (i, r) in a.restitution.iter().enumerate() {
+        l += &moments(&format!("restitution{i}.x"), &r.x);
+        l += &moments(&format!("restitution{i}.y"), &r.y);
+        l += &moments(&format!("restitution{i}.sum"), &r.sum);
+    }
     if let Some(f) = &a.friction {
         l += &format!(
             " ambiguous={} unconverged={} active={:?} sticking={:?}",

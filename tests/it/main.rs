@@ -24,6 +24,7 @@ mod kernel_vs_reference;
 mod kubernetes;
 mod physics_invariants;
 mod plots;
+mod ratios;
 mod readers;
 mod run_cli;
 mod shards;
