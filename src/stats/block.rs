@@ -276,14 +276,17 @@ fn block_stats_lanes<T: Real, const N: usize>(
                 la.impulse[i].hist.push_weighted(&d.lambda[i], &d.impacting);
             }
             if plan.quantiles.has(Statistic::Rebound) {
-                la.rebound[i].push_weighted(&d.rebound[i], &d.approaching[i]);
-            } else {
                 la.rebound[i]
-                    .moments
+                    .hist
                     .push_weighted(&d.rebound[i], &d.approaching[i]);
             }
+            la.rebound[i]
+                .moments
+                .push_weighted(&d.rebound[i], &d.approaching[i]);
+            // The restitution's sums need no extrema (its range is the
+            // rebound's).
             let r = &mut la.restitution[i];
-            Moments::push_weighted_many(
+            Moments::push_weighted_sums_many(
                 [&mut r.x, &mut r.y, &mut r.sum],
                 [&d.vn_out[i], &d.vn_in[i], &d.vn_sum[i]],
                 &d.approaching[i],

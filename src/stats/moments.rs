@@ -16,7 +16,7 @@ multiversioned! {
     /// few hundred values, shifted by the batch's first value, so their
     /// rounding (≲ 10⁻⁵ relative to the block's spread) is far below the Monte
     /// Carlo error; blocks are then combined in f64.
-    fn masked_sums<T: Real, const K: usize, const B: usize>(
+    fn masked_sums<T: Real, const K: usize, const B: usize, const EXTREMA: bool>(
         xs: [&[T; B]; K],
         w: &[T; B],
         shift: [T; K],
@@ -33,8 +33,10 @@ multiversioned! {
                 let d = (x - X16::splat(shift[k])) * wk;
                 acc[k][0] = acc[k][0] + d;
                 acc[k][1] = acc[k][1] + d * d;
-                acc[k][2] = acc[k][2].min(X16::select_positive(wk, x, inf));
-                acc[k][3] = acc[k][3].max(X16::select_positive(wk, x, ninf));
+                if EXTREMA {
+                    acc[k][2] = acc[k][2].min(X16::select_positive(wk, x, inf));
+                    acc[k][3] = acc[k][3].max(X16::select_positive(wk, x, ninf));
+                }
             }
         }
         (n, acc)
@@ -126,6 +128,27 @@ impl Moments {
         xs: [&[T; B]; K],
         w: &[T; B],
     ) {
+        Self::push_weighted_many_with::<T, K, B, true>(ms, xs, w);
+    }
+
+    /// [`Self::push_weighted_many`] without the extrema (they stay ±∞):
+    /// for moments that only feed a combined statistic (a ratio of sums),
+    /// at about half the cost of the pass.
+    #[inline(always)]
+    pub fn push_weighted_sums_many<T: Real, const K: usize, const B: usize>(
+        ms: [&mut Moments; K],
+        xs: [&[T; B]; K],
+        w: &[T; B],
+    ) {
+        Self::push_weighted_many_with::<T, K, B, false>(ms, xs, w);
+    }
+
+    #[inline(always)]
+    fn push_weighted_many_with<T: Real, const K: usize, const B: usize, const EXTREMA: bool>(
+        ms: [&mut Moments; K],
+        xs: [&[T; B]; K],
+        w: &[T; B],
+    ) {
         let Some(first) = w.iter().position(|&m| m > T::ZERO) else {
             return;
         };
@@ -138,7 +161,7 @@ impl Moments {
             shift[k] = T::from_f64(ms[k].shift);
         }
         // The shift is a value of the stream, so exact in its type.
-        let (mut n, mut acc) = masked_sums(xs, w, shift);
+        let (mut n, mut acc) = masked_sums::<T, K, B, EXTREMA>(xs, w, shift);
         for l in B / 16 * 16..B {
             if w[l] > T::ZERO {
                 n.0[0] += T::ONE;
@@ -147,8 +170,10 @@ impl Moments {
                     let [s1, s2, lo, hi] = &mut acc[k];
                     s1.0[0] += d;
                     s2.0[0] += d * d;
-                    lo.0[0] = lo.0[0].min(xs[k][l]);
-                    hi.0[0] = hi.0[0].max(xs[k][l]);
+                    if EXTREMA {
+                        lo.0[0] = lo.0[0].min(xs[k][l]);
+                        hi.0[0] = hi.0[0].max(xs[k][l]);
+                    }
                 }
             }
         }
