@@ -15,4 +15,4 @@ pub use scene::{
     load_scene, Contact, DropBox, NamedPlane, OrientationDist, Overrides, Placement, Precision,
     Scene, SceneError, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
 };
-pub use validate::parse_law;
+pub use validate::{parse_law, MAX_DROP_PLANES};

@@ -8,14 +8,18 @@
 //! The engine runs drop batches like contact batches (same counter-based
 //! draws, pool and merge tree, so the same shards, merges and thread
 //! independence); this module is what one batch does: per sample, the f64
-//! reference physics ([`crate::physics`]) for every law, recorded in the
-//! run's accumulators (the first impact as a contact scene's impact, every
-//! bounce in [`DropAcc`]) and, when asked for, one per-sample row per
-//! impact.
+//! reference physics ([`crate::physics`]) for every law, every bounce
+//! recorded in [`DropAcc`] and, when asked for, one per-sample row per
+//! impact. The first impacts of a block of samples are written into lanes
+//! by the contact fallback's writer ([`write_outcome`]) and recorded by the
+//! contact scenes' block statistics, so both kinds of scene share one
+//! recorder.
 
 use glam::DVec3;
 
-use crate::config::{DropBox, Scene, Statistic};
+use crate::config::{DropBox, Scene};
+use crate::kernel::{write_outcome, LawOut, UNSOLVED};
+use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::output::samples::{DropRow, SampleRows};
 use crate::physics::{
@@ -24,9 +28,9 @@ use crate::physics::{
 };
 use crate::sampler::rng::CounterRng;
 use crate::sampler::Sampler;
-use crate::stats::accumulators::{LawAcc, PairAcc, RunAcc};
+use crate::stats::accumulators::{LawAcc, RunAcc};
+use crate::stats::block::{block_stats, record_friction, Before, Derived, StatsPlan};
 use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
-use crate::stats::Stat;
 
 /// The start of sample `i`: drawn orientation and velocities, centre
 /// uniform in the drop box (its own stream, so the engine's draws are
@@ -138,57 +142,144 @@ pub struct DropCtx<'a> {
     sampler: Sampler,
     boxes: CounterRng,
     flight: Flight,
-    quantiles: crate::config::Quantiles,
-    by_set: bool,
+    plan: StatsPlan,
+    /// Every plane, in scene order: the recorded contacts of an impact.
+    planes: Vec<usize>,
+}
+
+/// One law's first impacts of a block, in lanes, for the block statistics:
+/// the state before (the impact's own, per law) and the results.
+struct Firsts<'a, const N: usize> {
+    energy: &'a mut [f64; BLOCK],
+    vn: &'a mut [[f64; BLOCK]; N],
+    out: &'a mut LawOut<f64, N>,
+}
+
+impl<const N: usize> Firsts<'_, N> {
+    /// Lane `s`: no impact (`status` 0, or UNSOLVED), its values unread.
+    fn none(&mut self, s: usize, status: u32) {
+        self.out.status[s] = status;
+    }
+
+    /// Lane `s`: the impact `o` of a body that came in with `before`.
+    fn impact(
+        &mut self,
+        s: usize,
+        body: &Ellipsoid,
+        before: &State,
+        o: &ImpactOutcome,
+        planes: &[usize],
+    ) {
+        self.energy[s] = o.energy_before;
+        for (i, c) in o.contacts.iter().enumerate() {
+            self.vn[i][s] = c.normal_velocity_before;
+        }
+        write_outcome(o, before, body, planes, self.out, s, 0);
+    }
 }
 
 impl<'a> DropCtx<'a> {
     pub fn new(scene: &'a Scene, start: DropBox, keep: crate::config::Keep) -> Self {
         let fx = scene.effects();
-        let st = if keep.statistics {
-            crate::config::Statistics::ALL
-        } else {
-            fx.statistics
-        };
         Self {
             scene,
             start,
             sampler: Sampler::new(scene),
             boxes: crate::sampler::rng::drop_start_rng(scene.seed()),
             flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
-            quantiles: st.quantiles,
-            by_set: st.by_active_set,
+            // |ω⁺| changes in flight and at impacts: computed per sample.
+            plan: StatsPlan::of(scene, keep).per_sample_spin(),
+            planes: scene.recorded_planes(),
         }
     }
 
     /// Samples `first..first + count` under every law, into `acc` (and one
     /// row per impact into `rows`).
-    pub fn run(&self, first: u64, count: u64, acc: &mut RunAcc, mut rows: Option<&mut SampleRows>) {
-        let laws = self.scene.laws();
-        let mut firsts = vec![None; laws.len()];
-        for i in first..first + count {
-            let start = start_of(&self.start, &self.sampler, &self.boxes, i);
-            for (l, &law) in laws.iter().enumerate() {
-                let mut log = rows.as_deref_mut().map(|r| (r, i, l as u32));
-                firsts[l] =
-                    self.simulate(law, start, &mut acc.laws[l], &mut acc.drops[l], &mut log);
-            }
-            for (pair, other) in acc.pairs.iter_mut().zip(&firsts[1..]) {
-                push_pair(pair, firsts[0].as_ref(), other.as_ref());
+    pub fn run(&self, first: u64, count: u64, acc: &mut RunAcc, rows: Option<&mut SampleRows>) {
+        match self.planes.len() {
+            1 => self.run_n::<1>(first, count, acc, rows),
+            2 => self.run_n::<2>(first, count, acc, rows),
+            3 => self.run_n::<3>(first, count, acc, rows),
+            4 => self.run_n::<4>(first, count, acc, rows),
+            5 => self.run_n::<5>(first, count, acc, rows),
+            n => {
+                debug_assert_eq!(n, crate::config::MAX_DROP_PLANES);
+                self.run_n::<6>(first, count, acc, rows)
             }
         }
     }
 
-    /// One sample under one law. Returns its first impact (none without
-    /// one).
-    fn simulate(
+    /// [`Self::run`] for `N` planes: per block of samples, every sample's
+    /// flights and bounces under every law, then the first impacts'
+    /// statistics by the block recorder of contact scenes.
+    fn run_n<const N: usize>(
+        &self,
+        first: u64,
+        count: u64,
+        acc: &mut RunAcc,
+        mut rows: Option<&mut SampleRows>,
+    ) {
+        let laws = self.scene.laws();
+        let mut energy = vec![[0.0; BLOCK]; laws.len()];
+        let mut vn = vec![[[0.0; BLOCK]; N]; laws.len()];
+        let mut outs: Vec<Box<LawOut<f64, N>>> = (0..laws.len()).map(|_| LawOut::new()).collect();
+        let (mut derived, mut base) = (Derived::<f64, N>::new(), Derived::<f64, N>::new());
+        let mut diff = Box::new([0.0; BLOCK]);
+        let end = first + count;
+        let mut lo = first;
+        while lo < end {
+            let n = ((end - lo) as usize).min(BLOCK);
+            for s in 0..n {
+                let i = lo + s as u64;
+                let start = start_of(&self.start, &self.sampler, &self.boxes, i);
+                for (l, &law) in laws.iter().enumerate() {
+                    let mut log = rows.as_deref_mut().map(|r| (r, i, l as u32));
+                    let mut first = Firsts {
+                        energy: &mut energy[l],
+                        vn: &mut vn[l],
+                        out: &mut outs[l],
+                    };
+                    let (la, drops) = (&mut acc.laws[l], &mut acc.drops[l]);
+                    self.simulate(law, start, s, &mut first, la, drops, &mut log);
+                }
+            }
+            let before: Vec<Before<f64, N>> = energy
+                .iter()
+                .zip(&vn)
+                .map(|(energy, vn)| Before { energy, vn })
+                .collect();
+            block_stats(
+                &before,
+                &outs,
+                n,
+                self.plan,
+                &mut derived,
+                &mut base,
+                &mut diff,
+                acc,
+            );
+            for (la, out) in acc.laws.iter_mut().zip(&outs) {
+                if let Some(fr) = la.friction.as_mut() {
+                    record_friction(out, n, fr);
+                }
+            }
+            lo += n as u64;
+        }
+    }
+
+    /// One sample under one law: its flights and bounces into `acc`, its
+    /// first impact into lane `s` of `first`.
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<const N: usize>(
         &self,
         law: Law,
         start: Motion,
+        s: usize,
+        first: &mut Firsts<'_, N>,
         la: &mut LawAcc,
         acc: &mut DropAcc,
         rows: &mut Option<(&mut SampleRows, u64, u32)>,
-    ) -> Option<First> {
+    ) {
         let scene = self.scene;
         let fx = scene.effects();
         let body = scene.body();
@@ -198,10 +289,9 @@ impl<'a> DropCtx<'a> {
         let mut m = start;
         let mut impacts = 0usize;
         let (mut since, mut clock) = (0.0, 0.0);
-        let mut first = None;
         let mut masks = [0usize; crate::stats::drops::SEQUENCE_IMPACTS];
         acc.samples += 1;
-        la.samples += 1;
+        first.none(s, 0);
         // A few non-impacts (a touch without approach) are tolerated per bounce.
         let mut attempts = 0;
         let ending = loop {
@@ -217,7 +307,7 @@ impl<'a> DropCtx<'a> {
                 Err(Stop::FlewAway) => break Ending::FlewAway,
                 Err(Stop::Unsolved) => {
                     if impacts == 0 {
-                        la.unsolved += 1;
+                        first.none(s, UNSOLVED);
                     }
                     break Ending::Unsolved;
                 }
@@ -237,10 +327,14 @@ impl<'a> DropCtx<'a> {
             }
             if impacts == 0 {
                 t0 = o.energy_before;
-                first = Some(First {
-                    values: self.record_first(la, &hit.motion, &o, mask, coupled_fallback),
-                    energy_gain: o.flags.energy_gain,
-                });
+                let before = State {
+                    velocity: m.velocity,
+                    omega: m.omega,
+                };
+                first.impact(s, body, &before, &o, &self.planes);
+                if let Some(fr) = la.friction.as_mut() {
+                    fr.coupled_fallback += coupled_fallback as u64;
+                }
             }
             if let Some(slot) = masks.get_mut(impacts) {
                 *slot = mask;
@@ -281,10 +375,6 @@ impl<'a> DropCtx<'a> {
                 break Ending::CameToRest;
             }
         };
-        if first.is_none() {
-            la.active_sets[0] += 1;
-            la.groups[0].samples += 1;
-        }
         acc.endings[ending as usize] += 1;
         acc.impacts[impacts] += 1;
         let cell = acc.sequence_cell(&masks);
@@ -299,126 +389,6 @@ impl<'a> DropCtx<'a> {
             2
         };
         acc.final_axis_up[axis] += 1;
-        first
-    }
-
-    /// A first impact as a contact scene's impact: active set, headline
-    /// statistics (histograms where the scene asks for quantiles), impulse
-    /// and rebound per plane, flags.
-    fn record_first(
-        &self,
-        la: &mut LawAcc,
-        before: &Motion,
-        o: &ImpactOutcome,
-        mask: usize,
-        coupled_fallback: bool,
-    ) -> [f64; 3] {
-        if let Some(fr) = &mut la.friction {
-            let before = State {
-                velocity: before.velocity,
-                omega: before.omega,
-            };
-            let stuck_at =
-                crate::physics::friction::sticking_threshold(self.scene.body(), &before, &o.after);
-            fr.ambiguous += o.flags.ambiguous as u64;
-            fr.unconverged += o.flags.unconverged as u64;
-            fr.coupled_fallback += coupled_fallback as u64;
-            for (i, c) in o.contacts.iter().enumerate() {
-                let active = c.impulse > 0.0;
-                fr.tangential_impulse[i]
-                    .moments
-                    .push(c.tangential_impulse.length());
-                if active {
-                    fr.sliding_speed[i].moments.push(c.sliding_after);
-                }
-                fr.active[i] += active as u64;
-                fr.sticking[i] += (active && c.sliding_after <= stuck_at) as u64;
-            }
-        }
-        let q = self.quantiles;
-        let by_set = self.by_set;
-        let values = [
-            o.energy_after / o.energy_before,
-            o.after.omega.length(),
-            o.after.velocity.length(),
-        ];
-        la.impacts += 1;
-        la.active_sets[mask] += 1;
-        la.energy_gain += o.flags.energy_gain as u64;
-        la.degenerate += o.flags.degenerate as u64;
-        la.jammed += o.flags.jammed as u64;
-        la.unsolved += o.flags.unsolved as u64;
-        let g = &mut la.groups[mask];
-        g.samples += 1;
-        g.impacts += 1;
-        let stats = [
-            Statistic::EnergyRatio,
-            Statistic::OmegaAfterNorm,
-            Statistic::VelocityAfterNorm,
-        ];
-        let all = [
-            &mut la.energy_ratio,
-            &mut la.omega_after_norm,
-            &mut la.velocity_after_norm,
-        ];
-        let group = [
-            &mut g.energy_ratio,
-            &mut g.omega_after_norm,
-            &mut g.velocity_after_norm,
-        ];
-        for (((s, a), g), x) in stats.into_iter().zip(all).zip(group).zip(values) {
-            a.moments.push(x);
-            g.moments.push(x);
-            if q.has(s) {
-                // Summed into the "all" histograms by RunAcc::finish.
-                if by_set {
-                    g.hist.push(x);
-                } else {
-                    a.hist.push(x);
-                }
-            }
-        }
-        let push = |st: &mut Stat, x: f64, s: Statistic| {
-            if q.has(s) {
-                st.push(x);
-            } else {
-                st.moments.push(x);
-            }
-        };
-        for (i, c) in o.contacts.iter().enumerate() {
-            push(&mut la.impulse[i], c.impulse, Statistic::Impulse);
-            if c.approaching {
-                push(
-                    &mut la.rebound[i],
-                    -c.normal_velocity_after / c.normal_velocity_before,
-                    Statistic::Rebound,
-                );
-                la.restitution[i].push(c.normal_velocity_after, -c.normal_velocity_before);
-            }
-        }
-        values
-    }
-}
-
-/// A sample's first impact under one law, as its pair statistics need it.
-#[derive(Debug, Clone, Copy)]
-struct First {
-    /// Energy ratio, |ω⁺| and |v⁺|.
-    values: [f64; 3],
-    energy_gain: bool,
-}
-
-/// One sample's paired statistics, `other − base`, as a contact block
-/// records them: differences where both laws impact, and the samples where
-/// only one of the two raises `energy_gain`.
-fn push_pair(p: &mut PairAcc, base: Option<&First>, other: Option<&First>) {
-    let gains = |f: Option<&First>| f.is_some_and(|f| f.energy_gain);
-    p.energy_gain_only += (gains(other) && !gains(base)) as u64;
-    p.first_energy_gain_only += (gains(base) && !gains(other)) as u64;
-    if let (Some(b), Some(o)) = (base, other) {
-        p.energy_ratio.push(o.values[0] - b.values[0]);
-        p.omega_after_norm.push(o.values[1] - b.values[1]);
-        p.velocity_after_norm.push(o.values[2] - b.values[2]);
     }
 }
 

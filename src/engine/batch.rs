@@ -17,7 +17,7 @@ use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::record_friction;
-use crate::stats::block::{block_stats, Derived, StatsPlan};
+use crate::stats::block::{block_stats, Before, Derived, StatsPlan};
 
 /// Scratch space of one worker: allocated once per batch, reused by blocks.
 pub(crate) struct Work<T, const N: usize> {
@@ -192,7 +192,7 @@ pub(crate) fn run_block<
     );
     fallback(scene, sampler, laws, first, work, count, Some(&mut *acc));
     block_stats(
-        &work.geo,
+        &[Before::of(&work.geo)],
         &work.outs,
         count,
         ctx.plan,

@@ -9,11 +9,11 @@ use glam::DMat3;
 
 use crate::config::Scene;
 use crate::kernel::{
-    bit, Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, APPROACHING_SHIFT, DEGENERATE, ENERGY_GAIN,
-    JAMMED, PENETRATING, RECOMPUTE, RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED,
+    active_bit, approaching_bit, bit, sticking_bit, Geometry, LawOut, AMBIGUOUS, DEGENERATE,
+    ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTE, RECOMPUTED, UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::Real;
-use crate::physics::{solve_impact, Law, Pose, State};
+use crate::physics::{solve_impact, Ellipsoid, ImpactOutcome, Law, Pose, State};
 use crate::sampler::Inputs;
 use glam::DVec3;
 
@@ -94,31 +94,50 @@ pub fn recompute<T: Real, const N: usize>(
         {
             status |= PENETRATING;
         }
-        let stuck_at = crate::physics::friction::sticking_threshold(scene.body(), &state, &o.after);
-        for (i, &p) in scene.touching().iter().enumerate() {
-            let ct = &o.contacts[p];
-            out.lambda[i][s] = T::from_f64(ct.impulse);
-            out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
-            out.tangential[i][s] = T::from_f64(ct.tangential_impulse.length());
-            out.sliding[i][s] = T::from_f64(ct.sliding_after);
-            status |= ((ct.impulse > 0.0) as u32) << (ACTIVE_SHIFT + i as u32);
-            status |= (ct.approaching as u32) << (APPROACHING_SHIFT + i as u32);
-            status |= bit(
-                ct.impulse > 0.0 && ct.sliding_after <= stuck_at,
-                1 << (STICKING_SHIFT + i as u32),
-            );
-        }
-        for k in 0..3 {
-            out.v_after[k][s] = T::from_f64(o.after.velocity[k]);
-            out.w_after[k][s] = T::from_f64(o.after.omega[k]);
-        }
-        out.t_after[s] = T::from_f64(o.energy_after);
-        status |= bit(o.flags.energy_gain, ENERGY_GAIN)
-            | bit(o.flags.degenerate, DEGENERATE)
-            | bit(o.flags.jammed, JAMMED)
-            | bit(o.flags.unsolved, UNSOLVED)
-            | bit(o.flags.ambiguous, AMBIGUOUS)
-            | bit(o.flags.unconverged, UNCONVERGED);
-        out.status[s] = status;
+        write_outcome(&o, &state, scene.body(), scene.touching(), out, s, status);
     }
+}
+
+/// Writes a reference outcome into lane `s` of `out`: per recorded contact
+/// (`planes`, indices into the outcome's contacts, in lane order) its
+/// impulse, normal velocity after, |f| and |c⁺_t|, and its approaching,
+/// active and sticking bits; the velocities and energy after; the
+/// outcome's flags, over `status`. The one scalar impact recorder: the
+/// contact fallback and the drop body both record impacts through it, and
+/// the block statistics read the lanes alike.
+pub fn write_outcome<T: Real, const N: usize>(
+    o: &ImpactOutcome,
+    before: &State,
+    body: &Ellipsoid,
+    planes: &[usize],
+    out: &mut LawOut<T, N>,
+    s: usize,
+    mut status: u32,
+) {
+    let stuck_at = crate::physics::friction::sticking_threshold(body, before, &o.after);
+    for (i, &p) in planes.iter().enumerate() {
+        let ct = &o.contacts[p];
+        out.lambda[i][s] = T::from_f64(ct.impulse);
+        out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
+        out.tangential[i][s] = T::from_f64(ct.tangential_impulse.length());
+        out.sliding[i][s] = T::from_f64(ct.sliding_after);
+        status |= bit(ct.impulse > 0.0, active_bit(i))
+            | bit(ct.approaching, approaching_bit(i))
+            | bit(
+                ct.impulse > 0.0 && ct.sliding_after <= stuck_at,
+                sticking_bit(i),
+            );
+    }
+    for k in 0..3 {
+        out.v_after[k][s] = T::from_f64(o.after.velocity[k]);
+        out.w_after[k][s] = T::from_f64(o.after.omega[k]);
+    }
+    out.t_after[s] = T::from_f64(o.energy_after);
+    status |= bit(o.flags.energy_gain, ENERGY_GAIN)
+        | bit(o.flags.degenerate, DEGENERATE)
+        | bit(o.flags.jammed, JAMMED)
+        | bit(o.flags.unsolved, UNSOLVED)
+        | bit(o.flags.ambiguous, AMBIGUOUS)
+        | bit(o.flags.unconverged, UNCONVERGED);
+    out.status[s] = status;
 }

@@ -35,7 +35,7 @@ use crate::config::Scene;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 
-pub use fallback::{check_extra_planes, recompute};
+pub use fallback::{check_extra_planes, recompute, write_outcome};
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
 pub use impulses::{impulses, post};
@@ -57,6 +57,76 @@ pub const RECOMPUTED: u32 = 1 << 14;
 pub const STICKING_SHIFT: u32 = 16;
 pub const AMBIGUOUS: u32 = 1 << 20;
 pub const UNCONVERGED: u32 = 1 << 21;
+/// Contacts 4 and 5 (a drop scene has up to six planes; the contact kernel
+/// at most three): approaching at bits 22–23, active at 24–25, sticking at
+/// 26–27, so that contacts 0–3 keep the documented positions above.
+const HIGH_APPROACHING: u32 = 22;
+const HIGH_ACTIVE: u32 = 24;
+const HIGH_STICKING: u32 = 26;
+
+/// Contact `i`'s approaching bit.
+#[inline(always)]
+pub const fn approaching_bit(i: usize) -> u32 {
+    if i < 4 {
+        1 << (APPROACHING_SHIFT + i as u32)
+    } else {
+        1 << (HIGH_APPROACHING + i as u32 - 4)
+    }
+}
+
+/// Contact `i`'s active bit (λ_i > 0).
+#[inline(always)]
+pub const fn active_bit(i: usize) -> u32 {
+    if i < 4 {
+        1 << (ACTIVE_SHIFT + i as u32)
+    } else {
+        1 << (HIGH_ACTIVE + i as u32 - 4)
+    }
+}
+
+/// Contact `i`'s sticking bit.
+#[inline(always)]
+pub const fn sticking_bit(i: usize) -> u32 {
+    if i < 4 {
+        1 << (STICKING_SHIFT + i as u32)
+    } else {
+        1 << (HIGH_STICKING + i as u32 - 4)
+    }
+}
+
+/// The approaching contacts of a status as a mask over `N` contacts (bit
+/// i: contact i).
+#[inline(always)]
+pub fn approaching_mask<const N: usize>(st: u32) -> u32 {
+    let low = (st >> APPROACHING_SHIFT) & ((1 << N.min(4)) - 1);
+    if N <= 4 {
+        low
+    } else {
+        low | (((st >> HIGH_APPROACHING) & ((1 << (N - 4)) - 1)) << 4)
+    }
+}
+
+/// The active contacts (λ > 0) of a status as a mask over `N` contacts.
+#[inline(always)]
+pub fn active_mask<const N: usize>(st: u32) -> u32 {
+    let low = (st >> ACTIVE_SHIFT) & ((1 << N.min(4)) - 1);
+    if N <= 4 {
+        low
+    } else {
+        low | (((st >> HIGH_ACTIVE) & ((1 << (N - 4)) - 1)) << 4)
+    }
+}
+
+/// The contacts that ended sticking, as a mask over `N` contacts.
+#[inline(always)]
+pub fn sticking_mask<const N: usize>(st: u32) -> u32 {
+    let low = (st >> STICKING_SHIFT) & ((1 << N.min(4)) - 1);
+    if N <= 4 {
+        low
+    } else {
+        low | (((st >> HIGH_STICKING) & ((1 << (N - 4)) - 1)) << 4)
+    }
+}
 
 /// `flag` when `c` holds, else 0, without a branch.
 #[inline(always)]

@@ -7,7 +7,7 @@ use glam::{DMat3, DQuat};
 
 use crate::config::{Placement, Precision, Scene};
 use crate::kernel::{
-    Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, STICKING_SHIFT,
+    active_mask, sticking_mask, Geometry, LawOut, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
     UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::dispatch::BLOCK;
@@ -464,22 +464,14 @@ pub fn push_rows<T: Real, const N: usize>(
     for out in outs {
         let status = &out.status[..count];
         let active = ints.next().expect("column count");
-        active.extend(
-            status
-                .iter()
-                .map(|st| ((st >> ACTIVE_SHIFT) & ((1 << N) - 1)) as u16),
-        );
+        active.extend(status.iter().map(|&st| active_mask::<N>(st) as u16));
         // Bits 0–14 (a u16 holds them); the friction bits above have their
         // own columns.
         let flags = ints.next().expect("column count");
         flags.extend(status.iter().map(|&st| st as u16));
         if friction {
             let sticking = ints.next().expect("column count");
-            sticking.extend(
-                status
-                    .iter()
-                    .map(|st| ((st >> STICKING_SHIFT) & ((1 << N) - 1)) as u16),
-            );
+            sticking.extend(status.iter().map(|&st| sticking_mask::<N>(st) as u16));
             let friction_flags = ints.next().expect("column count");
             friction_flags.extend(
                 status.iter().map(|&st| {

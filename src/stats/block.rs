@@ -8,8 +8,8 @@
 
 use crate::config::{Keep, Quantiles, Scene, Statistic, Statistics};
 use crate::kernel::{
-    Geometry, LawOut, ACTIVE_SHIFT, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING,
-    RECOMPUTED, STICKING_SHIFT, UNCONVERGED, UNSOLVED,
+    active_bit, active_mask, approaching_mask, sticking_bit, Geometry, LawOut, AMBIGUOUS,
+    DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTED, UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::{select, Real};
@@ -68,6 +68,15 @@ pub(crate) struct StatsPlan {
 }
 
 impl StatsPlan {
+    /// |ω⁺| computed per sample even where the scene's start fixes it (a
+    /// drop's spin changes in flight and at impacts).
+    pub(crate) fn per_sample_spin(self) -> Self {
+        Self {
+            constant_spin: None,
+            ..self
+        }
+    }
+
     pub(crate) fn of(scene: &Scene, keep: Keep) -> Self {
         let e = scene.effects();
         let st = if keep.statistics {
@@ -84,6 +93,24 @@ impl StatsPlan {
     }
 }
 
+/// What the statistics read of a block's state before the impact: the
+/// kinetic energy and each contact's normal velocity, per lane.
+#[derive(Clone, Copy)]
+pub(crate) struct Before<'a, T, const N: usize> {
+    pub(crate) energy: &'a [T; BLOCK],
+    pub(crate) vn: &'a [[T; BLOCK]; N],
+}
+
+impl<'a, T, const N: usize> Before<'a, T, N> {
+    /// A contact block's: the same for every law.
+    pub(crate) fn of(geo: &'a Geometry<T, N>) -> Self {
+        Self {
+            energy: &geo.t_before,
+            vn: &geo.vn,
+        }
+    }
+}
+
 /// Per-lane statistics of a law's block results. Lanes past `count` and
 /// penetrating lanes get weight 0, and every value is made finite (0 where
 /// its weight is 0), so masked sums are plain arithmetic. Everything stays
@@ -93,13 +120,12 @@ impl StatsPlan {
 /// Returns the block's counts, taken in the same pass over the statuses.
 #[inline(always)]
 fn derive<T: Real, const N: usize>(
-    geo: &Geometry<T, N>,
+    geo: Before<T, N>,
     out: &LawOut<T, N>,
     count: usize,
     plan: StatsPlan,
     d: &mut Derived<T, N>,
 ) -> BlockCounts {
-    let approach_mask = (1u32 << N) - 1;
     let w01 = |c: bool| select(c, T::ONE, T::ZERO);
     let mut n = BlockCounts::default();
     // |ω⁺| per lane, unless it is the same in every sample.
@@ -114,9 +140,9 @@ fn derive<T: Real, const N: usize>(
         let st = out.status[s];
         let in_batch = s < count;
         let valid = in_batch & (st & PENETRATING == 0);
-        let approaching = st & approach_mask;
+        let approaching = approaching_mask::<N>(st);
         let impacting = valid & (approaching != 0);
-        let active = (st >> ACTIVE_SHIFT) & approach_mask;
+        let active = active_mask::<N>(st);
         d.impacting[s] = w01(impacting);
         d.active[s] = active;
         for k in 0..BlockCounts::FLAGS.len() {
@@ -127,7 +153,7 @@ fn derive<T: Real, const N: usize>(
         // of a 64-bit word (fewer than 256 lanes per block, so no byte
         // carries into the next, whatever the partial sums).
         n.per_set += (valid as u64) << (8 * (active & 7));
-        let ratio = out.t_after[s] / geo.t_before[s];
+        let ratio = out.t_after[s] / geo.energy[s];
         d.ratio[s] = select(impacting, ratio, T::ZERO);
         if omega_per_lane {
             let (a, b, c) = (out.w_after[0][s], out.w_after[1][s], out.w_after[2][s]);
@@ -191,10 +217,11 @@ fn group_stat(g: &mut GroupAcc, k: usize) -> &mut Stat {
 multiversioned! {
     /// Accumulates every law's block results: counters, then moments and
     /// histograms as masked vector passes, for the statistics the plan asks
-    /// for. Compiled like `block_lanes`.
+    /// for. `before` is one state for every law (a contact block) or one
+    /// per law (a drop's first impacts). Compiled like `block_lanes`.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn block_stats<T: Real, const N: usize>(
-        geo: &Geometry<T, N>,
+        before: &[Before<T, N>],
         outs: &[Box<LawOut<T, N>>],
         count: usize,
         plan: StatsPlan,
@@ -203,7 +230,7 @@ multiversioned! {
         diff: &mut [T; BLOCK],
         acc: &mut RunAcc,
     ) {
-        block_stats_lanes(geo, outs, count, plan, derived, first, diff, acc)
+        block_stats_lanes(before, outs, count, plan, derived, first, diff, acc)
     }
 }
 
@@ -211,7 +238,7 @@ multiversioned! {
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn block_stats_lanes<T: Real, const N: usize>(
-    geo: &Geometry<T, N>,
+    before: &[Before<T, N>],
     outs: &[Box<LawOut<T, N>>],
     count: usize,
     plan: StatsPlan,
@@ -225,7 +252,7 @@ fn block_stats_lanes<T: Real, const N: usize>(
     for li in 0..outs.len() {
         let la = &mut acc.laws[li];
         let out = &outs[li];
-        let n = derive(geo, out, count, plan, derived);
+        let n = derive(before[li.min(before.len() - 1)], out, count, plan, derived);
         let d = &mut **derived;
         let c = n.flags;
         la.samples += count as u64;
@@ -500,7 +527,6 @@ pub(crate) fn record_friction<T: Real, const N: usize>(
     fr: &mut FrictionAcc,
 ) {
     let w01 = |c: bool| select(c, T::ONE, T::ZERO);
-    let active_mask = ((1u32 << N) - 1) << ACTIVE_SHIFT;
     let mut impacting = [T::ZERO; BLOCK];
     let mut active = [[T::ZERO; BLOCK]; N];
     let mut tangential = [[T::ZERO; BLOCK]; N];
@@ -512,15 +538,15 @@ pub(crate) fn record_friction<T: Real, const N: usize>(
         }
         fr.ambiguous += (st & AMBIGUOUS != 0) as u64;
         fr.unconverged += (st & UNCONVERGED != 0) as u64;
-        let any = st & active_mask != 0;
+        let any = active_mask::<N>(st) != 0;
         impacting[s] = w01(any);
         for i in 0..N {
-            let on = st & (1 << (ACTIVE_SHIFT + i as u32)) != 0;
+            let on = st & active_bit(i) != 0;
             active[i][s] = w01(on);
             tangential[i][s] = select(any, out.tangential[i][s], T::ZERO);
             sliding[i][s] = select(on, out.sliding[i][s], T::ZERO);
             fr.active[i] += on as u64;
-            fr.sticking[i] += (st & (1 << (STICKING_SHIFT + i as u32)) != 0) as u64;
+            fr.sticking[i] += (st & sticking_bit(i) != 0) as u64;
         }
     }
     for i in 0..N {

@@ -600,3 +600,49 @@ fn per_impact_columns_can_be_chosen() {
     assert_eq!(names, ["sample", "law", "energy_ratio", "bounce"]);
     assert!(rows.iter().map(|b| b.num_rows()).sum::<usize>() >= 500);
 }
+
+/// A drop scene with six planes records its fifth and sixth planes as it
+/// does the first four: a sphere dropped straight down in a box whose floor
+/// and ceiling are the last two planes meets only the floor, so every
+/// first impact is the floor's, with the floor's restitution.
+#[test]
+fn the_fifth_and_sixth_planes_of_a_drop_are_recorded_as_their_own() {
+    let mut text = String::from(
+        "name = \"box\"\nsamples = 500\nseed = 3\nlaws = [\"newton\"]\n\n\
+         [body]\nsemi_axes = [0.5, 0.5, 0.5]\nmass = 1.0\n\n",
+    );
+    for (name, normal, offset, k) in [
+        ("x_low", "[1.0, 0.0, 0.0]", 0.0, 0.1),
+        ("x_high", "[-1.0, 0.0, 0.0]", 10.0, 0.2),
+        ("y_low", "[0.0, 1.0, 0.0]", 0.0, 0.3),
+        ("y_high", "[0.0, -1.0, 0.0]", 10.0, 0.4),
+        ("floor", "[0.0, 0.0, 1.0]", 0.0, 0.75),
+        ("ceiling", "[0.0, 0.0, -1.0]", 10.0, 0.6),
+    ] {
+        text += &format!(
+            "[[planes]]\nname = \"{name}\"\nnormal = {normal}\noffset = {offset}\nrestitution = {k}\n\n"
+        );
+    }
+    text += "[placement]\ndrop = { min = [4.0, 4.0, 2.0], max = [6.0, 6.0, 3.0] }\n\n\
+             [effects]\ngravity = 9.81\nbounces = 1\n\n\
+             [orientation]\ndistribution = \"uniform\"\n\n\
+             [velocity]\ndistribution = \"fixed\"\nvalue = [0.0, 0.0, -1.0]\n\n\
+             [angular_velocity]\ndistribution = \"fixed\"\nvalue = [0.0, 0.0, 0.0]\n";
+    let s = scene_text(&text, "six-planes").unwrap();
+    let sum = Summary::new(&s, &run_drop(&s, 2));
+    assert_eq!(
+        sum.contacts,
+        ["x_low", "x_high", "y_low", "y_high", "floor", "ceiling"]
+    );
+    let all = sum.all_group("newton").unwrap();
+    assert_eq!(all.impacts, 500);
+    assert_eq!(all.active_sets["floor"], 1.0);
+    for plane in ["x_low", "x_high", "y_low", "y_high", "ceiling"] {
+        assert_eq!(all.stats[&*format!("rebound_{plane}")].n, 0, "{plane}");
+        assert_eq!(all.stats[&*format!("impulse_{plane}")].max, 0.0, "{plane}");
+    }
+    let floor = &all.stats["restitution_floor"];
+    assert_eq!(floor.n, 500);
+    assert!((floor.mean - 0.75).abs() < 1e-12, "{}", floor.mean);
+    assert!(all.stats["impulse_floor"].min > 0.0);
+}
