@@ -5,6 +5,7 @@
 
 mod direct;
 pub mod manifest;
+pub mod named;
 pub mod parquet;
 pub mod plots;
 pub mod samples;
