@@ -215,5 +215,59 @@ fn reference(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, kernel, effects, friction, sampler, reference);
+/// The torque-free attitude of a block of `drop_corner` flights at one time
+/// per lane: in lanes (f32, f64; the constants set up by the reference
+/// beforehand, outside the timing) against the reference's `at`, one
+/// motion at a time. Elements are poses.
+fn flight(c: &mut Criterion) {
+    use impactmc::kernel::flight::{poses, PoseLanes, Poses};
+    use impactmc::physics::TorqueFree;
+    let mut g = c.benchmark_group("flight");
+    g.throughput(Throughput::Elements(BLOCK as u64));
+    g.sample_size(20)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(300));
+    let s = scene("drop_corner", "newton", "f64");
+    let sampler = Sampler::new(&s);
+    let motions: Vec<TorqueFree> = (0..BLOCK as u64)
+        .map(|i| {
+            let (a, _, w) = sampler.reference(i);
+            TorqueFree::new(s.body().inertia(), a, w)
+        })
+        .collect();
+    let times: Vec<f64> = (0..BLOCK).map(|i| 0.3 + 0.001 * i as f64).collect();
+    g.bench_function("reference_f64", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for (m, &t) in motions.iter().zip(&times) {
+                acc += m.at(t).1.x;
+            }
+            acc
+        })
+    });
+    fn lanes<T: impactmc::lanes::Real>(
+        g: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>,
+        motions: &[TorqueFree],
+        times: &[f64],
+    ) {
+        let mut c = PoseLanes::<T>::new();
+        let mut t = [T::ZERO; BLOCK];
+        for (s, (m, &ts)) in motions.iter().zip(times).enumerate() {
+            c.set(s, m);
+            t[s] = T::from_f64(ts);
+        }
+        let mut out = Poses::<T>::new();
+        g.bench_function(format!("lanes_{}", T::NAME), |b| {
+            b.iter(|| {
+                poses(&c, &t, &mut out);
+                out.omega[0][0]
+            })
+        });
+    }
+    lanes::<f64>(&mut g, &motions, &times);
+    lanes::<f32>(&mut g, &motions, &times);
+    g.finish();
+}
+
+criterion_group!(benches, kernel, effects, friction, sampler, reference, flight);
 criterion_main!(benches);

@@ -25,6 +25,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 mod fallback;
+pub mod flight;
 mod friction;
 mod geometry;
 mod impulses;

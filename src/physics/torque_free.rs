@@ -131,12 +131,12 @@ pub fn carlson_rf_rj(x: f64, y: f64, z: f64, p: f64) -> (f64, f64) {
 #[derive(Debug, Clone, Copy)]
 pub struct Jacobi {
     /// 1 − m.
-    mc: f64,
-    levels: usize,
-    a: [f64; 16],
-    b: [f64; 16],
+    pub(crate) mc: f64,
+    pub(crate) levels: usize,
+    pub(crate) a: [f64; 16],
+    pub(crate) b: [f64; 16],
     /// The AGM limit.
-    agm: f64,
+    pub(crate) agm: f64,
 }
 
 impl Jacobi {
@@ -204,34 +204,34 @@ impl Jacobi {
 #[derive(Debug, Clone)]
 pub struct TorqueFree {
     /// Body coordinates → relabelled coordinates (a proper rotation).
-    perm: DMat3,
+    pub(crate) perm: DMat3,
     /// R₀ B(l₀)ᵀ, relabelled body → world up to the precession angle.
-    base: DMat3,
-    inertia: DVec3,
-    amp: DVec3,
+    pub(crate) base: DMat3,
+    pub(crate) inertia: DVec3,
+    pub(crate) amp: DVec3,
     /// σs and σ: the signs of ω₂ and ω₃ (see the module notes).
-    sign2: f64,
-    sign3: f64,
-    lambda: f64,
-    tau0: f64,
+    pub(crate) sign2: f64,
+    pub(crate) sign3: f64,
+    pub(crate) lambda: f64,
+    pub(crate) tau0: f64,
     /// 2K, the period of sn² in τ.
-    two_k: f64,
-    jacobi: Jacobi,
+    pub(crate) two_k: f64,
+    pub(crate) jacobi: Jacobi,
     /// Π(−ν; am τ) in theta form.
-    phase: ThetaPhase,
+    pub(crate) phase: ThetaPhase,
     /// The precession angle's secular rate, `M/I₃ + swing · (Π(−ν)/K) λ`,
     /// its periodic amplitude, `swing · S`, and the periodic part at τ₀
     /// (`swing = M(I₃ − I₁)/(I₁ I₃ λ)`).
-    rate: f64,
-    amplitude: f64,
-    periodic0: f64,
+    pub(crate) rate: f64,
+    pub(crate) amplitude: f64,
+    pub(crate) periodic0: f64,
     /// A steady rotation (about a principal axis, or none): ω constant.
-    steady: Option<DVec3>,
+    pub(crate) steady: Option<DVec3>,
     /// Within [`SEPARATRIX`] of the separatrix, RK4 at this step instead.
-    rk4_step: Option<f64>,
-    rotation0: DMat3,
-    omega0: DVec3,
-    body_inertia: DVec3,
+    pub(crate) rk4_step: Option<f64>,
+    pub(crate) rotation0: DMat3,
+    pub(crate) omega0: DVec3,
+    pub(crate) body_inertia: DVec3,
 }
 
 /// How close to the separatrix (1 − k²) the closed form is used. Its error
@@ -422,7 +422,7 @@ impl TorqueFree {
 
 /// Most terms of a [`ThetaPhase`] series: enough for q ≤ 0.55, that is for
 /// every orbit the closed form is used on (1 − k² ≥ [`SEPARATRIX`]).
-const THETA_TERMS: usize = 12;
+pub(crate) const THETA_TERMS: usize = 12;
 
 /// `Π(−ν; am u)` for any real `u` in Jacobi's theta form (Whittaker &
 /// Watson §22.74, with the imaginary parameter of a negative
@@ -442,14 +442,14 @@ const THETA_TERMS: usize = 12;
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ThetaPhase {
     /// π/(2K): u → v.
-    scale: f64,
+    pub(crate) scale: f64,
     /// Π(−ν)/K.
-    slope: f64,
-    s: f64,
-    terms: usize,
+    pub(crate) slope: f64,
+    pub(crate) s: f64,
+    pub(crate) terms: usize,
     /// 2(−1)ⁿ qⁿ² cosh 2nw and 2(−1)ⁿ qⁿ² sinh 2nw, n = 1, 2, …
-    re: [f64; THETA_TERMS],
-    im: [f64; THETA_TERMS],
+    pub(crate) re: [f64; THETA_TERMS],
+    pub(crate) im: [f64; THETA_TERMS],
 }
 
 impl ThetaPhase {

@@ -13,6 +13,7 @@ mod drop_runs;
 mod effects;
 mod engine_runs;
 mod flight;
+mod flight_lanes;
 mod friction_invariants;
 mod friction_kernel;
 mod friction_scenes;

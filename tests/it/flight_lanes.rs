@@ -1,0 +1,84 @@
+//! The torque-free attitude in lanes against the f64 reference
+//! (`physics::TorqueFree::at`), lane by lane, on random triaxial bodies,
+//! attitudes, spins and times, in both precisions.
+
+use glam::{DMat3, DQuat, DVec3};
+use impactmc::kernel::flight::{poses, PoseLanes, Poses};
+use impactmc::lanes::dispatch::BLOCK;
+use impactmc::lanes::Real;
+use impactmc::physics::TorqueFree;
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn normal(&mut self) -> f64 {
+        let (u, v) = (self.next().max(1e-300), self.next());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// A block of random motions and times: (motion, time) per lane.
+fn block(rng: &mut Rng) -> Vec<(TorqueFree, f64)> {
+    (0..BLOCK)
+        .map(|_| {
+            let axes = DVec3::new(0.2 + rng.next(), 0.2 + rng.next(), 0.2 + rng.next());
+            let sq = axes * axes;
+            let inertia = DVec3::new(sq.y + sq.z, sq.x + sq.z, sq.x + sq.y) * 0.2;
+            let q = DQuat::from_xyzw(rng.normal(), rng.normal(), rng.normal(), rng.normal())
+                .normalize();
+            let spin = 10f64.powf(rng.next() * 2.0 - 0.5);
+            let omega = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * spin;
+            let t = 2.0 * rng.next();
+            (TorqueFree::new(inertia, DMat3::from_quat(q), omega), t)
+        })
+        .collect()
+}
+
+/// Largest differences from the reference over closed-form lanes: of the
+/// attitude's entries, and of ω relative to |ω|; and the lanes compared.
+fn errors<T: Real>(motions: &[(TorqueFree, f64)]) -> (f64, f64, usize) {
+    let mut c = PoseLanes::<T>::new();
+    let mut t = [T::ZERO; BLOCK];
+    for (s, (m, ts)) in motions.iter().enumerate() {
+        c.set(s, m);
+        t[s] = T::from_f64(*ts);
+    }
+    let mut out = Poses::<T>::new();
+    poses(&c, &t, &mut out);
+    let (mut er, mut ew, mut n) = (0f64, 0f64, 0);
+    for (s, (m, _)) in motions.iter().enumerate() {
+        if !c.closed(s) {
+            continue;
+        }
+        n += 1;
+        let (want_r, want_w) = m.at(t[s].to_f64());
+        let (got_r, got_w) = out.lane(s);
+        let d = (got_r - want_r).to_cols_array();
+        er = er.max(d.iter().fold(0.0, |a, x| a.max(x.abs())));
+        ew = ew.max((got_w - want_w).length() / want_w.length());
+    }
+    (er, ew, n)
+}
+
+#[test]
+fn lane_poses_match_the_reference_in_f64_and_f32() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let (mut worst64, mut worst32, mut lanes) = ((0f64, 0f64), (0f64, 0f64), 0);
+    for _ in 0..40 {
+        let motions = block(&mut rng);
+        let (r, w, n) = errors::<f64>(&motions);
+        worst64 = (worst64.0.max(r), worst64.1.max(w));
+        let (r, w, _) = errors::<f32>(&motions);
+        worst32 = (worst32.0.max(r), worst32.1.max(w));
+        lanes += n;
+    }
+    println!("{lanes} lanes: f64 {worst64:?}, f32 {worst32:?}");
+    assert!(lanes > 7000, "closed-form lanes {lanes}");
+    assert!(worst64.0 < 1e-12 && worst64.1 < 1e-12, "f64 {worst64:?}");
+    assert!(worst32.0 < 1e-4 && worst32.1 < 1e-4, "f32 {worst32:?}");
+}
