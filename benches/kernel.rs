@@ -236,6 +236,22 @@ fn flight(c: &mut Criterion) {
         })
         .collect();
     let times: Vec<f64> = (0..BLOCK).map(|i| 0.3 + 0.001 * i as f64).collect();
+    // What the lanes take as given: the reference's set-up of each motion.
+    let starts: Vec<_> = (0..BLOCK as u64)
+        .map(|i| {
+            let (a, _, w) = sampler.reference(i);
+            (a, w)
+        })
+        .collect();
+    g.bench_function("setup_reference_f64", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for &(a, w) in &starts {
+                acc += TorqueFree::new(s.body().inertia(), a, w).at(0.0).1.x;
+            }
+            acc
+        })
+    });
     g.bench_function("reference_f64", |b| {
         b.iter(|| {
             let mut acc = 0.0;
