@@ -15,7 +15,7 @@ pub struct MergeArgs {
     /// Output folder for the merged run.
     #[arg(long)]
     out: PathBuf,
-    /// Overwrite an output folder that already holds a run.
+    /// Overwrite an output folder that already holds a run (the files its manifest lists and this run does not write are removed).
     #[arg(long)]
     force: bool,
     /// Merge even if shards are missing (the result is marked partial) or

@@ -36,7 +36,7 @@ pub struct RunArgs {
     /// Output folder (default: results/<scene name>/).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Overwrite an output folder that already holds a run.
+    /// Overwrite an output folder that already holds a run (the files its manifest lists and this run does not write are removed).
     #[arg(long)]
     force: bool,
     /// Also write samples.parquet, one row per sample (a drop scene: per

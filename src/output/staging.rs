@@ -145,16 +145,49 @@ impl Staging {
     }
 
     /// Renames every file into place, in the order written (write the
-    /// manifest last).
+    /// manifest last). Then the files an earlier run listed in its
+    /// manifest and this one did not write are removed, so that a folder
+    /// overwritten with `--force` holds one run (files it did not list,
+    /// such as a user's own, stay).
     pub fn commit(mut self) -> Result<Vec<PathBuf>, OutputError> {
+        let earlier = earlier_files(&self.dir);
         let mut done = Vec::new();
         for (tmp, final_path) in std::mem::take(&mut self.files) {
             fs::rename(&tmp, &final_path).map_err(io(&final_path))?;
             done.push(final_path);
         }
         self.committed = true;
+        for path in earlier {
+            if !done.contains(&path) {
+                let _ = fs::remove_file(&path);
+            }
+        }
         Ok(done)
     }
+}
+
+/// The files the run in `dir` lists in its manifest, as paths in `dir`
+/// (relative names without `..` only; none without a readable manifest).
+fn earlier_files(dir: &Path) -> Vec<PathBuf> {
+    let Ok(text) = fs::read_to_string(dir.join("manifest.json")) else {
+        return Vec::new();
+    };
+    let Ok(manifest) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return Vec::new();
+    };
+    manifest["files"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|f| f.as_str())
+        .map(Path::new)
+        .filter(|p| {
+            p.is_relative()
+                && p.components()
+                    .all(|c| matches!(c, std::path::Component::Normal(_)))
+        })
+        .map(|p| dir.join(p))
+        .collect()
 }
 
 impl Drop for Staging {

@@ -303,3 +303,43 @@ fn samples_file_is_the_same_for_any_thread_count() {
     }
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// `--force` leaves one run in the folder: what the earlier run listed in
+/// its manifest and this one does not write is gone (its per-sample rows,
+/// bounce tables and figures), and a file of the user's own stays.
+#[test]
+fn force_leaves_no_file_of_the_earlier_run() {
+    let dir = support::scratch("force-stale");
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = |scene: &str, extra: &[&str]| {
+        let out = support::bin()
+            .args(["run", "--samples", "300", "--force", "--out"])
+            .arg(&dir)
+            .args(extra)
+            .arg(support::repo(scene))
+            .output()
+            .unwrap();
+        support::assert_succeeded(&out);
+    };
+    run("configs/drop_corner.toml", &["--per-sample"]);
+    for f in ["samples.parquet", "bounces.parquet", "plots/sequences.svg"] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    run("configs/floor.toml", &[]);
+    for f in ["samples.parquet", "bounces.parquet", "plots/sequences.svg"] {
+        assert!(
+            !dir.join(f).exists(),
+            "{f} of the earlier run is still there"
+        );
+    }
+    let manifest = support::json_file(&dir.join("manifest.json"));
+    for f in manifest["files"].as_array().unwrap() {
+        assert!(dir.join(f.as_str().unwrap()).exists(), "{f}");
+    }
+    assert!(dir.join("summary.parquet").exists());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "mine"
+    );
+}
