@@ -282,6 +282,66 @@ fn flight(c: &mut Criterion) {
     }
     lanes::<f64>(&mut g, &motions, &times);
     lanes::<f32>(&mut g, &motions, &times);
+
+    // The time of impact of the first flights of 192 samples: the
+    // reference one flight at a time, and the lanes (set-up included:
+    // the reference's TorqueFree::new per lane). Elements are flights.
+    use impactmc::kernel::flight::{times_of_impact, FlightLanes, Times};
+    use impactmc::physics::{sphere_clearance, time_of_impact, Rotation};
+    let impactmc::config::Placement::Drop(start) = s.placement() else {
+        panic!("drop_corner is a drop scene")
+    };
+    let boxes = impactmc::sampler::rng::drop_start_rng(s.seed());
+    let flights: Vec<_> = (0..BLOCK as u64)
+        .map(|i| impactmc::drop::start_of(start, &sampler, &boxes, i))
+        .collect();
+    let planes: Vec<_> = s.planes().iter().map(|p| p.plane).collect();
+    let fx = s.effects();
+    let gravity = glam::DVec3::new(0.0, 0.0, -fx.gravity);
+    let reach = s.body().semi_axes().max_element();
+    g.bench_function("toi_reference_f64", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for m in &flights {
+                let hit = time_of_impact(
+                    s.body(),
+                    m,
+                    &planes,
+                    gravity,
+                    Rotation::Elliptic,
+                    fx.toi_tolerance,
+                    fx.horizon,
+                );
+                acc += hit.map_or(0.0, |h| h.time);
+            }
+            acc
+        })
+    });
+    fn toi<T: impactmc::lanes::Real>(
+        g: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>,
+        s: &Scene,
+        flights: &[impactmc::physics::Motion],
+        planes: &[impactmc::physics::Plane],
+        gravity: glam::DVec3,
+        reach: f64,
+    ) {
+        let fx = s.effects();
+        let mut f =
+            FlightLanes::<T, 3>::new(s.body(), planes, gravity, fx.toi_tolerance, fx.horizon);
+        let (mut poses, mut times) = (Poses::<T>::new(), Times::<T>::new());
+        g.bench_function(format!("toi_lanes_{}", T::NAME), |b| {
+            b.iter(|| {
+                for (k, m) in flights.iter().enumerate() {
+                    let t0 = sphere_clearance(reach, m, planes, gravity, fx.toi_tolerance);
+                    f.set(k, s.body(), m, t0);
+                }
+                times_of_impact(&f, 400, &mut poses, &mut times);
+                times.time[0]
+            })
+        });
+    }
+    toi::<f64>(&mut g, &s, &flights, &planes, gravity, reach);
+    toi::<f32>(&mut g, &s, &flights, &planes, gravity, reach);
     g.finish();
 }
 

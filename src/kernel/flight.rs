@@ -268,3 +268,247 @@ multiversioned! {
         }
     }
 }
+
+/// A block of flights under gravity toward `N` planes, for the time of
+/// impact in lanes: each lane's start (centre and velocity; its attitude
+/// in [`PoseLanes`]), its spin bound and where its search starts, and what
+/// every lane shares (planes, gravity, body, tolerance, horizon).
+pub struct FlightLanes<T, const N: usize> {
+    pub pose: Box<PoseLanes<T>>,
+    centre: [[T; BLOCK]; 3],
+    velocity: [[T; BLOCK]; 3],
+    w_bound: [T; BLOCK],
+    curvature: [T; BLOCK],
+    start: [T; BLOCK],
+    normal: [[T; 3]; N],
+    offset: [T; N],
+    gravity: [T; 3],
+    semi: [T; 3],
+    /// a − c: the support point's largest offset from the centre's normal.
+    spread: T,
+    tolerance: T,
+    horizon: T,
+}
+
+/// Where the time-of-impact search of a block stands, per lane.
+pub struct Times<T> {
+    /// Time from the start of the flight (s): at the impact where `hit`.
+    pub time: [T; BLOCK],
+    pub hit: [bool; BLOCK],
+    /// The search ended (an impact, or none within the horizon); lanes
+    /// still open after the iteration budget go to the reference.
+    pub done: [bool; BLOCK],
+}
+
+impl<T: Real> Times<T> {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            time: [T::ZERO; BLOCK],
+            hit: [false; BLOCK],
+            done: [false; BLOCK],
+        })
+    }
+}
+
+impl<T: Real, const N: usize> FlightLanes<T, N> {
+    /// An empty block for `body` and `planes` (at most six). The search
+    /// stops within `tolerance` of a plane, but never closer than 256 ulp
+    /// of the type at the scene's length (the largest semi-axis, plane
+    /// offset or 1 m): below that a position cannot be resolved. In f64
+    /// that floor is some 6e-14 m, far below the default tolerance; in f32
+    /// it is 3e-5 m per metre.
+    pub fn new(
+        body: &crate::physics::Ellipsoid,
+        planes: &[crate::physics::Plane],
+        gravity: DVec3,
+        tolerance: f64,
+        horizon: f64,
+    ) -> Box<Self> {
+        assert_eq!(planes.len(), N, "planes of the block");
+        let t = T::from_f64;
+        let semi = body.semi_axes();
+        let z = [T::ZERO; BLOCK];
+        Box::new(Self {
+            pose: PoseLanes::new(),
+            centre: [z; 3],
+            velocity: [z; 3],
+            w_bound: z,
+            curvature: z,
+            start: z,
+            normal: std::array::from_fn(|i| planes[i].normal().to_array().map(t)),
+            offset: std::array::from_fn(|i| t(planes[i].offset())),
+            gravity: gravity.to_array().map(t),
+            semi: semi.to_array().map(t),
+            spread: t(semi.max_element() - semi.min_element()),
+            tolerance: t(tolerance.max(
+                256.0 * T::EPSILON.to_f64() * {
+                    let offsets = planes.iter().map(|p| p.offset().abs());
+                    offsets.fold(semi.max_element().max(1.0), f64::max)
+                },
+            )),
+            horizon: t(horizon),
+        })
+    }
+
+    /// Lane `s` flies from `m`: its closed-form motion, spin bound and
+    /// search start as the reference sets them up (`start` is the
+    /// bounding-sphere clearance). False if its rotation is not
+    /// closed-form (the lane is then left to the reference).
+    pub fn set(
+        &mut self,
+        s: usize,
+        body: &crate::physics::Ellipsoid,
+        m: &crate::physics::Motion,
+        start: f64,
+    ) -> bool {
+        let t = T::from_f64;
+        let tf = TorqueFree::new(body.inertia(), m.rotation, m.omega);
+        let closed = self.pose.set(s, &tf);
+        let j = body.inertia();
+        let w_bound = crate::physics::spin_bound(j, m.omega);
+        let semi = body.semi_axes();
+        let (a_max, a_min) = (semi.max_element(), semi.min_element());
+        let j_spread = (j.max_element() - j.min_element()) / j.min_element();
+        let w2 = w_bound * w_bound;
+        let curvature = w2 * a_max * a_max / a_min + a_max * w2 + (a_max - a_min) * w2 * j_spread;
+        for k in 0..3 {
+            self.centre[k][s] = t(m.centre[k]);
+            self.velocity[k][s] = t(m.velocity[k]);
+        }
+        self.w_bound[s] = t(w_bound);
+        self.curvature[s] = t(curvature);
+        self.start[s] = t(start);
+        closed
+    }
+}
+
+/// Per plane, at time `t` with the lane's pose: its signed distance and
+/// the normal velocity of its support point (as `ContactGeometry`).
+#[inline(always)]
+fn gap_and_rate<T: Real, const N: usize>(
+    f: &FlightLanes<T, N>,
+    p: &Poses<T>,
+    s: usize,
+    t: T,
+    i: usize,
+) -> (T, T) {
+    let n = f.normal[i];
+    let centre: [T; 3] = std::array::from_fn(|k| {
+        f.centre[k][s] + f.velocity[k][s] * t + T::HALF * f.gravity[k] * t * t
+    });
+    let velocity: [T; 3] = std::array::from_fn(|k| f.velocity[k][s] + f.gravity[k] * t);
+    // u = Aᵀ n: column k of A dotted with n.
+    let u: [T; 3] = std::array::from_fn(|k| {
+        p.rotation[k][0][s] * n[0] + p.rotation[k][1][s] * n[1] + p.rotation[k][2][s] * n[2]
+    });
+    let (a, b, c) = (f.semi[0], f.semi[1], f.semi[2]);
+    let du = [a * u[0], b * u[1], c * u[2]];
+    let support = (du[0] * du[0] + du[1] * du[1] + du[2] * du[2]).sqrt();
+    let distance = n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2] + f.offset[i] - support;
+    let inv = -T::ONE / support;
+    let lever = [
+        (b - c) * (b + c) * u[1] * u[2] * inv,
+        (c - a) * (c + a) * u[2] * u[0] * inv,
+        (a - b) * (a + b) * u[0] * u[1] * inv,
+    ];
+    let w = [p.omega[0][s], p.omega[1][s], p.omega[2][s]];
+    let rate = n[0] * velocity[0]
+        + n[1] * velocity[1]
+        + n[2] * velocity[2]
+        + lever[0] * w[0]
+        + lever[1] * w[1]
+        + lever[2] * w[2];
+    (distance, rate)
+}
+
+/// The time of impact of every closed-form lane by the reference's safe
+/// steps (`physics::time_of_impact`): per plane the larger of its linear
+/// and quadratic bounds, the smallest over the planes, masked per lane.
+/// At most `budget` steps; lanes still open after that are not `done`.
+pub fn times_of_impact<T: Real, const N: usize>(
+    f: &FlightLanes<T, N>,
+    budget: usize,
+    poses_work: &mut Poses<T>,
+    out: &mut Times<T>,
+) {
+    let tol = f.tolerance;
+    let two = T::from_f64(2.0);
+    let mut armed = [0u32; BLOCK];
+    for s in 0..BLOCK {
+        out.time[s] = f.start[s].min(f.horizon);
+        out.hit[s] = false;
+        out.done[s] = !f.pose.closed(s);
+    }
+    poses(&f.pose, &out.time, poses_work);
+    for s in 0..BLOCK {
+        for i in 0..N {
+            let (d, v) = gap_and_rate(f, poses_work, s, out.time[s], i);
+            armed[s] |= ((d > tol || v < T::ZERO) as u32) << i;
+        }
+    }
+    for _ in 0..budget {
+        let mut open = 0usize;
+        for s in 0..BLOCK {
+            if out.done[s] {
+                continue;
+            }
+            let t = out.time[s];
+            let mut hit = false;
+            let mut dt = T::INFINITY;
+            for i in 0..N {
+                let (d, v) = gap_and_rate(f, poses_work, s, t, i);
+                if d > tol {
+                    armed[s] |= 1 << i;
+                }
+                let gap = if armed[s] >> i & 1 == 1 {
+                    hit |= d <= tol;
+                    d - T::HALF * tol
+                } else {
+                    hit |= v < T::ZERO;
+                    d + tol
+                }
+                .max(T::ZERO);
+                let n = f.normal[i];
+                let toward = -(n[0] * (f.velocity[0][s] + f.gravity[0] * t)
+                    + n[1] * (f.velocity[1][s] + f.gravity[1] * t)
+                    + n[2] * (f.velocity[2][s] + f.gravity[2] * t));
+                let speed = toward.max(T::ZERO) + f.w_bound[s] * f.spread;
+                let acc = (-(n[0] * f.gravity[0] + n[1] * f.gravity[1] + n[2] * f.gravity[2]))
+                    .max(T::ZERO);
+                let linear = if acc > T::ZERO {
+                    two * gap / (speed + (speed * speed + T::from_f64(4.0) * acc * gap).sqrt())
+                } else if speed > T::ZERO {
+                    gap / speed
+                } else {
+                    T::INFINITY
+                };
+                let c = -v;
+                let b = acc + f.curvature[s];
+                let root = (c * c + two * b * gap).sqrt();
+                let quadratic = if c >= T::ZERO {
+                    two * gap / (c + root)
+                } else if b > T::ZERO {
+                    (root - c) / b
+                } else {
+                    T::INFINITY
+                };
+                dt = dt.min(linear.max(quadratic));
+            }
+            if hit {
+                out.hit[s] = true;
+                out.done[s] = true;
+                continue;
+            }
+            if t >= f.horizon || (dt == T::INFINITY && f.horizon == T::INFINITY) {
+                out.done[s] = true;
+                continue;
+            }
+            out.time[s] = t + dt.min(f.horizon - t).max(T::ZERO);
+            open += 1;
+        }
+        if open == 0 {
+            break;
+        }
+        poses(&f.pose, &out.time, poses_work);
+    }
+}

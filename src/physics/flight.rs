@@ -329,7 +329,7 @@ pub fn time_of_impact(
 /// centre) comes within `tolerance` of some plane: before it no plane can be
 /// within the tolerance, whatever the rotation. Zero if the sphere is that
 /// close at the start; infinite if it never is.
-fn sphere_clearance(
+pub fn sphere_clearance(
     reach: f64,
     start: &Motion,
     planes: &[Plane],

@@ -22,7 +22,10 @@ pub use compliant::{
     solve_compliant_with, CompliantError, CompliantOutcome, CompliantParams,
 };
 pub use contact::{inverse_inertance, kinetic_energy, support_point_lagrange, ContactGeometry};
-pub use flight::{advance, precess, rk4_rotation, time_of_impact, Impact, Motion, Rotation};
+pub use flight::{
+    advance, precess, rk4_rotation, sphere_clearance, spin_bound, time_of_impact, Impact, Motion,
+    Rotation,
+};
 pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
     State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
