@@ -287,7 +287,7 @@ fn flight(c: &mut Criterion) {
     // reference one flight at a time, and the lanes (set-up included:
     // the reference's TorqueFree::new per lane). Elements are flights.
     use impactmc::kernel::flight::{times_of_impact, FlightLanes, Times};
-    use impactmc::physics::{sphere_clearance, time_of_impact, Rotation};
+    use impactmc::physics::{time_of_impact, Rotation};
     let impactmc::config::Placement::Drop(start) = s.placement() else {
         panic!("drop_corner is a drop scene")
     };
@@ -298,7 +298,6 @@ fn flight(c: &mut Criterion) {
     let planes: Vec<_> = s.planes().iter().map(|p| p.plane).collect();
     let fx = s.effects();
     let gravity = glam::DVec3::new(0.0, 0.0, -fx.gravity);
-    let reach = s.body().semi_axes().max_element();
     g.bench_function("toi_reference_f64", |b| {
         b.iter(|| {
             let mut acc = 0.0;
@@ -323,7 +322,6 @@ fn flight(c: &mut Criterion) {
         flights: &[impactmc::physics::Motion],
         planes: &[impactmc::physics::Plane],
         gravity: glam::DVec3,
-        reach: f64,
     ) {
         let fx = s.effects();
         let mut f =
@@ -332,16 +330,15 @@ fn flight(c: &mut Criterion) {
         g.bench_function(format!("toi_lanes_{}", T::NAME), |b| {
             b.iter(|| {
                 for (k, m) in flights.iter().enumerate() {
-                    let t0 = sphere_clearance(reach, m, planes, gravity, fx.toi_tolerance);
-                    f.set(k, s.body(), m, t0);
+                    f.set(k, s.body(), m);
                 }
                 times_of_impact(&f, 400, &mut poses, &mut times);
                 times.time[0]
             })
         });
     }
-    toi::<f64>(&mut g, &s, &flights, &planes, gravity, reach);
-    toi::<f32>(&mut g, &s, &flights, &planes, gravity, reach);
+    toi::<f64>(&mut g, &s, &flights, &planes, gravity);
+    toi::<f32>(&mut g, &s, &flights, &planes, gravity);
     g.finish();
 }
 

@@ -283,6 +283,12 @@ pub struct FlightLanes<T, const N: usize> {
     normal: [[T; 3]; N],
     offset: [T; N],
     gravity: [T; 3],
+    /// Per plane, gravity's pull toward it: max(0, −n·g).
+    gravity_toward: [T; N],
+    /// The planes, gravity and tolerance in f64, for each lane's set-up.
+    planes: Vec<crate::physics::Plane>,
+    gravity64: DVec3,
+    tolerance64: f64,
     semi: [T; 3],
     /// a − c: the support point's largest offset from the centre's normal.
     spread: T,
@@ -338,6 +344,10 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
             normal: std::array::from_fn(|i| planes[i].normal().to_array().map(t)),
             offset: std::array::from_fn(|i| t(planes[i].offset())),
             gravity: gravity.to_array().map(t),
+            gravity_toward: std::array::from_fn(|i| t((-planes[i].normal().dot(gravity)).max(0.0))),
+            planes: planes.to_vec(),
+            gravity64: gravity,
+            tolerance64: tolerance,
             semi: semi.to_array().map(t),
             spread: t(semi.max_element() - semi.min_element()),
             tolerance: t(tolerance.max(
@@ -351,15 +361,14 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
     }
 
     /// Lane `s` flies from `m`: its closed-form motion, spin bound and
-    /// search start as the reference sets them up (`start` is the
-    /// bounding-sphere clearance). False if its rotation is not
-    /// closed-form (the lane is then left to the reference).
+    /// search start (the bounding sphere's clearance) as the reference sets
+    /// them up. False if its rotation is not closed-form (the lane is then
+    /// left to the reference).
     pub fn set(
         &mut self,
         s: usize,
         body: &crate::physics::Ellipsoid,
         m: &crate::physics::Motion,
-        start: f64,
     ) -> bool {
         let t = T::from_f64;
         let tf = TorqueFree::new(body.inertia(), m.rotation, m.omega);
@@ -377,13 +386,20 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
         }
         self.w_bound[s] = t(w_bound);
         self.curvature[s] = t(curvature);
-        self.start[s] = t(start);
+        self.start[s] = t(crate::physics::sphere_clearance(
+            a_max,
+            m,
+            &self.planes,
+            self.gravity64,
+            self.tolerance64,
+        ));
         closed
     }
 }
 
-/// Per plane, at time `t` with the lane's pose: its signed distance and
-/// the normal velocity of its support point (as `ContactGeometry`).
+/// Per plane, at time `t` with the lane's pose: its signed distance, the
+/// normal velocity of its support point (as `ContactGeometry`) and that of
+/// the centre.
 #[inline(always)]
 fn gap_and_rate<T: Real, const N: usize>(
     f: &FlightLanes<T, N>,
@@ -391,7 +407,7 @@ fn gap_and_rate<T: Real, const N: usize>(
     s: usize,
     t: T,
     i: usize,
-) -> (T, T) {
+) -> (T, T, T) {
     let n = f.normal[i];
     let centre: [T; 3] = std::array::from_fn(|k| {
         f.centre[k][s] + f.velocity[k][s] * t + T::HALF * f.gravity[k] * t * t
@@ -412,13 +428,9 @@ fn gap_and_rate<T: Real, const N: usize>(
         (a - b) * (a + b) * u[0] * u[1] * inv,
     ];
     let w = [p.omega[0][s], p.omega[1][s], p.omega[2][s]];
-    let rate = n[0] * velocity[0]
-        + n[1] * velocity[1]
-        + n[2] * velocity[2]
-        + lever[0] * w[0]
-        + lever[1] * w[1]
-        + lever[2] * w[2];
-    (distance, rate)
+    let centre_rate = n[0] * velocity[0] + n[1] * velocity[1] + n[2] * velocity[2];
+    let rate = centre_rate + lever[0] * w[0] + lever[1] * w[1] + lever[2] * w[2];
+    (distance, rate, centre_rate)
 }
 
 /// The time of impact of every closed-form lane by the reference's safe
@@ -442,7 +454,7 @@ pub fn times_of_impact<T: Real, const N: usize>(
     poses(&f.pose, &out.time, poses_work);
     for s in 0..BLOCK {
         for i in 0..N {
-            let (d, v) = gap_and_rate(f, poses_work, s, out.time[s], i);
+            let (d, v, _) = gap_and_rate(f, poses_work, s, out.time[s], i);
             armed[s] |= ((d > tol || v < T::ZERO) as u32) << i;
         }
     }
@@ -456,7 +468,7 @@ pub fn times_of_impact<T: Real, const N: usize>(
             let mut hit = false;
             let mut dt = T::INFINITY;
             for i in 0..N {
-                let (d, v) = gap_and_rate(f, poses_work, s, t, i);
+                let (d, v, toward) = gap_and_rate(f, poses_work, s, t, i);
                 if d > tol {
                     armed[s] |= 1 << i;
                 }
@@ -468,13 +480,8 @@ pub fn times_of_impact<T: Real, const N: usize>(
                     d + tol
                 }
                 .max(T::ZERO);
-                let n = f.normal[i];
-                let toward = -(n[0] * (f.velocity[0][s] + f.gravity[0] * t)
-                    + n[1] * (f.velocity[1][s] + f.gravity[1] * t)
-                    + n[2] * (f.velocity[2][s] + f.gravity[2] * t));
-                let speed = toward.max(T::ZERO) + f.w_bound[s] * f.spread;
-                let acc = (-(n[0] * f.gravity[0] + n[1] * f.gravity[1] + n[2] * f.gravity[2]))
-                    .max(T::ZERO);
+                let speed = (-toward).max(T::ZERO) + f.w_bound[s] * f.spread;
+                let acc = f.gravity_toward[i];
                 let linear = if acc > T::ZERO {
                     two * gap / (speed + (speed * speed + T::from_f64(4.0) * acc * gap).sqrt())
                 } else if speed > T::ZERO {

@@ -65,68 +65,63 @@ const HIGH_APPROACHING: u32 = 22;
 const HIGH_ACTIVE: u32 = 24;
 const HIGH_STICKING: u32 = 26;
 
+/// Contact `i`'s bit of a kind whose contacts 0–3 start at bit `low` and
+/// contacts 4–5 at bit `high`.
+#[inline(always)]
+const fn contact_bit(i: usize, low: u32, high: u32) -> u32 {
+    if i < 4 {
+        1 << (low + i as u32)
+    } else {
+        1 << (high + i as u32 - 4)
+    }
+}
+
+/// The bits of one kind (laid out as in [`contact_bit`]) as a mask over
+/// `N` contacts (bit i: contact i).
+#[inline(always)]
+fn contact_mask<const N: usize>(st: u32, low: u32, high: u32) -> u32 {
+    let low_bits = (st >> low) & ((1 << N.min(4)) - 1);
+    if N <= 4 {
+        low_bits
+    } else {
+        low_bits | (((st >> high) & ((1 << (N - 4)) - 1)) << 4)
+    }
+}
+
 /// Contact `i`'s approaching bit.
 #[inline(always)]
 pub const fn approaching_bit(i: usize) -> u32 {
-    if i < 4 {
-        1 << (APPROACHING_SHIFT + i as u32)
-    } else {
-        1 << (HIGH_APPROACHING + i as u32 - 4)
-    }
+    contact_bit(i, APPROACHING_SHIFT, HIGH_APPROACHING)
 }
 
 /// Contact `i`'s active bit (λ_i > 0).
 #[inline(always)]
 pub const fn active_bit(i: usize) -> u32 {
-    if i < 4 {
-        1 << (ACTIVE_SHIFT + i as u32)
-    } else {
-        1 << (HIGH_ACTIVE + i as u32 - 4)
-    }
+    contact_bit(i, ACTIVE_SHIFT, HIGH_ACTIVE)
 }
 
 /// Contact `i`'s sticking bit.
 #[inline(always)]
 pub const fn sticking_bit(i: usize) -> u32 {
-    if i < 4 {
-        1 << (STICKING_SHIFT + i as u32)
-    } else {
-        1 << (HIGH_STICKING + i as u32 - 4)
-    }
+    contact_bit(i, STICKING_SHIFT, HIGH_STICKING)
 }
 
-/// The approaching contacts of a status as a mask over `N` contacts (bit
-/// i: contact i).
+/// The approaching contacts of a status, as a mask over `N` contacts.
 #[inline(always)]
 pub fn approaching_mask<const N: usize>(st: u32) -> u32 {
-    let low = (st >> APPROACHING_SHIFT) & ((1 << N.min(4)) - 1);
-    if N <= 4 {
-        low
-    } else {
-        low | (((st >> HIGH_APPROACHING) & ((1 << (N - 4)) - 1)) << 4)
-    }
+    contact_mask::<N>(st, APPROACHING_SHIFT, HIGH_APPROACHING)
 }
 
-/// The active contacts (λ > 0) of a status as a mask over `N` contacts.
+/// The active contacts (λ > 0) of a status, as a mask over `N` contacts.
 #[inline(always)]
 pub fn active_mask<const N: usize>(st: u32) -> u32 {
-    let low = (st >> ACTIVE_SHIFT) & ((1 << N.min(4)) - 1);
-    if N <= 4 {
-        low
-    } else {
-        low | (((st >> HIGH_ACTIVE) & ((1 << (N - 4)) - 1)) << 4)
-    }
+    contact_mask::<N>(st, ACTIVE_SHIFT, HIGH_ACTIVE)
 }
 
 /// The contacts that ended sticking, as a mask over `N` contacts.
 #[inline(always)]
 pub fn sticking_mask<const N: usize>(st: u32) -> u32 {
-    let low = (st >> STICKING_SHIFT) & ((1 << N.min(4)) - 1);
-    if N <= 4 {
-        low
-    } else {
-        low | (((st >> HIGH_STICKING) & ((1 << (N - 4)) - 1)) << 4)
-    }
+    contact_mask::<N>(st, STICKING_SHIFT, HIGH_STICKING)
 }
 
 /// `flag` when `c` holds, else 0, without a branch.

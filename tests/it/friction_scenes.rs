@@ -37,6 +37,21 @@ fn summary(s: &Scene, threads: usize) -> Summary {
     Summary::new(s, &run(s, &opts).unwrap())
 }
 
+/// Of a `newton`/`stronge` summary: each law's fraction of samples with
+/// `energy_gain`, and the pair's one-sided fractions (newton only, stronge
+/// only).
+fn energy_gains(r: &Summary) -> ([f64; 2], [f64; 2]) {
+    let gain = |law: &str| r.all_group(law).unwrap().fractions["energy_gain"];
+    let only = r.paired["stronge-newton"]
+        .energy_gain_only
+        .as_ref()
+        .expect("the pair counts energy_gain");
+    (
+        [gain("newton"), gain("stronge")],
+        [only["newton"], only["stronge"]],
+    )
+}
+
 const FLOOR_K: &str = "restitution = 0.8\n";
 
 #[test]
@@ -215,16 +230,11 @@ fn paired_summary_counts_where_newton_gains_energy_and_stronge_does_not() {
     )
     .unwrap();
     let r = summary(&s, 2);
-    let gain = |law: &str| r.all_group(law).unwrap().fractions["energy_gain"];
-    let only = r.paired["stronge-newton"]
-        .energy_gain_only
-        .as_ref()
-        .expect("a contact scene's pairs count energy_gain");
-    let (newton_only, stronge_only) = (only["newton"], only["stronge"]);
-    assert_eq!(gain("stronge"), 0.0);
+    let ([newton, stronge], [newton_only, stronge_only]) = energy_gains(&r);
+    assert_eq!(stronge, 0.0);
     assert_eq!(stronge_only, 0.0);
-    assert!(gain("newton") > 0.05, "newton gains in {}", gain("newton"));
-    assert_eq!(newton_only, gain("newton"));
+    assert!(newton > 0.05, "newton gains in {newton}");
+    assert_eq!(newton_only, newton);
     let text = r.to_text();
     assert!(
         text.contains("energy_gain in stronge only 0.00e0, newton only"),
@@ -254,13 +264,9 @@ fn a_drops_pairs_count_where_one_law_gains_energy_at_the_first_impact() {
     )
     .unwrap();
     let r = summary(&s, 2);
-    let gain = |law: &str| r.all_group(law).unwrap().fractions["energy_gain"];
-    let only = r.paired["stronge-newton"]
-        .energy_gain_only
-        .as_ref()
-        .expect("a drop's pairs count energy_gain");
-    assert_eq!(gain("stronge"), 0.0);
-    assert!(gain("newton") > 0.02, "newton gains in {}", gain("newton"));
-    assert_eq!(only["stronge"], 0.0);
-    assert!((only["newton"] - only["stronge"] - (gain("newton") - gain("stronge"))).abs() < 1e-12);
+    let ([newton, stronge], [newton_only, stronge_only]) = energy_gains(&r);
+    assert_eq!(stronge, 0.0);
+    assert!(newton > 0.02, "newton gains in {newton}");
+    assert_eq!(stronge_only, 0.0);
+    assert!((newton_only - stronge_only - (newton - stronge)).abs() < 1e-12);
 }
