@@ -18,19 +18,25 @@
 use glam::DVec3;
 
 use crate::config::{DropBox, Scene};
-use crate::kernel::{write_outcome, LawOut, UNSOLVED};
+use crate::kernel::LawOut;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::output::samples::{DropRow, SampleRows};
+use crate::output::samples::SampleRows;
 use crate::physics::{
     solve_impact, time_of_impact, Ellipsoid, Impact, ImpactError, ImpactOutcome, Law, Motion,
     Plane, Pose, Rotation, State,
 };
 use crate::sampler::rng::CounterRng;
 use crate::sampler::Sampler;
-use crate::stats::accumulators::{LawAcc, RunAcc};
+use crate::stats::accumulators::RunAcc;
 use crate::stats::block::{block_stats, record_friction, Before, Derived, StatsPlan};
-use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
+use crate::stats::drops::Ending;
+
+mod strike;
+mod walk;
+
+pub use strike::Strike;
+use walk::{Log, Walk};
 
 /// The start of sample `i`: drawn orientation and velocities, centre
 /// uniform in the drop box (its own stream, so the engine's draws are
@@ -143,13 +149,11 @@ pub struct DropCtx<'a> {
     boxes: CounterRng,
     flight: Flight,
     plan: StatsPlan,
-    /// Every plane, in scene order: the recorded contacts of an impact.
-    planes: Vec<usize>,
 }
 
 /// One law's first impacts of a block, in lanes, for the block statistics:
 /// the state before (the impact's own, per law) and the results.
-struct Firsts<'a, const N: usize> {
+pub(crate) struct Firsts<'a, const N: usize> {
     energy: &'a mut [f64; BLOCK],
     vn: &'a mut [[f64; BLOCK]; N],
     out: &'a mut LawOut<f64, N>,
@@ -162,21 +166,18 @@ impl<const N: usize> Firsts<'_, N> {
     }
 
     /// Lane `s`: the impact `o` of a body that came in with `before`.
-    fn impact(
-        &mut self,
-        s: usize,
-        body: &Ellipsoid,
-        before: &State,
-        o: &ImpactOutcome,
-        planes: &[usize],
-    ) {
+    fn impact(&mut self, s: usize, body: &Ellipsoid, before: &State, o: &Strike) {
         self.energy[s] = o.energy_before;
-        for (i, c) in o.contacts.iter().enumerate() {
-            self.vn[i][s] = c.normal_velocity_before;
+        for i in 0..N {
+            self.vn[i][s] = o.normal_velocity_before[i];
         }
-        write_outcome(o, before, body, planes, self.out, s, 0);
+        o.write(before, body, self.out, s, 0);
     }
 }
+
+/// Samples per chunk of a batch: the walks of a chunk are computed (in any
+/// order), then replayed in sample order, a block at a time.
+const CHUNK: usize = 16 * BLOCK;
 
 impl<'a> DropCtx<'a> {
     pub fn new(scene: &'a Scene, start: DropBox, keep: crate::config::Keep) -> Self {
@@ -189,14 +190,13 @@ impl<'a> DropCtx<'a> {
             flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
             // |ω⁺| changes in flight and at impacts: computed per sample.
             plan: StatsPlan::of(scene, keep).per_sample_spin(),
-            planes: scene.recorded_planes(),
         }
     }
 
     /// Samples `first..first + count` under every law, into `acc` (and one
     /// row per impact into `rows`).
     pub fn run(&self, first: u64, count: u64, acc: &mut RunAcc, rows: Option<&mut SampleRows>) {
-        match self.planes.len() {
+        match self.scene.planes().len() {
             1 => self.run_n::<1>(first, count, acc, rows),
             2 => self.run_n::<2>(first, count, acc, rows),
             3 => self.run_n::<3>(first, count, acc, rows),
@@ -209,9 +209,10 @@ impl<'a> DropCtx<'a> {
         }
     }
 
-    /// [`Self::run`] for `N` planes: per block of samples, every sample's
-    /// flights and bounces under every law, then the first impacts'
-    /// statistics by the block recorder of contact scenes.
+    /// [`Self::run`] for `N` planes: per chunk of samples, every walk
+    /// (sample and law), then per block of the chunk the walks replayed in
+    /// sample order and the first impacts' statistics by the block
+    /// recorder of contact scenes.
     fn run_n<const N: usize>(
         &self,
         first: u64,
@@ -220,190 +221,93 @@ impl<'a> DropCtx<'a> {
         mut rows: Option<&mut SampleRows>,
     ) {
         let laws = self.scene.laws();
+        let body = self.scene.body();
         let mut energy = vec![[0.0; BLOCK]; laws.len()];
         let mut vn = vec![[[0.0; BLOCK]; N]; laws.len()];
         let mut outs: Vec<Box<LawOut<f64, N>>> = (0..laws.len()).map(|_| LawOut::new()).collect();
         let (mut derived, mut base) = (Derived::<f64, N>::new(), Derived::<f64, N>::new());
         let mut diff = Box::new([0.0; BLOCK]);
+        let mut logs: Vec<Log> = Vec::new();
         let end = first + count;
         let mut lo = first;
         while lo < end {
-            let n = ((end - lo) as usize).min(BLOCK);
-            for s in 0..n {
-                let i = lo + s as u64;
-                let start = start_of(&self.start, &self.sampler, &self.boxes, i);
-                for (l, &law) in laws.iter().enumerate() {
-                    let mut log = rows.as_deref_mut().map(|r| (r, i, l as u32));
-                    let mut first = Firsts {
-                        energy: &mut energy[l],
-                        vn: &mut vn[l],
-                        out: &mut outs[l],
-                    };
-                    let (la, drops) = (&mut acc.laws[l], &mut acc.drops[l]);
-                    self.simulate(law, start, s, &mut first, la, drops, &mut log);
+            let chunk = ((end - lo) as usize).min(CHUNK);
+            logs.resize_with(chunk * laws.len(), || Log::new(rows.is_some()));
+            let logs = &mut logs[..chunk * laws.len()];
+            self.walks(lo, logs);
+            for (b, block) in logs.chunks(BLOCK * laws.len()).enumerate() {
+                let n = block.len() / laws.len();
+                for s in 0..n {
+                    let i = lo + (b * BLOCK + s) as u64;
+                    for (l, log) in block[s * laws.len()..][..laws.len()].iter().enumerate() {
+                        let mut first = Firsts {
+                            energy: &mut energy[l],
+                            vn: &mut vn[l],
+                            out: &mut outs[l],
+                        };
+                        let (la, drops) = (&mut acc.laws[l], &mut acc.drops[l]);
+                        let r = rows.as_deref_mut();
+                        log.replay((i, l as u32), s, &mut first, body, la, drops, r);
+                    }
+                }
+                let before: Vec<Before<f64, N>> = energy
+                    .iter()
+                    .zip(&vn)
+                    .map(|(energy, vn)| Before { energy, vn })
+                    .collect();
+                block_stats(
+                    &before,
+                    &outs,
+                    n,
+                    self.plan,
+                    &mut derived,
+                    &mut base,
+                    &mut diff,
+                    acc,
+                );
+                for (la, out) in acc.laws.iter_mut().zip(&outs) {
+                    if let Some(fr) = la.friction.as_mut() {
+                        record_friction(out, n, fr);
+                    }
                 }
             }
-            let before: Vec<Before<f64, N>> = energy
-                .iter()
-                .zip(&vn)
-                .map(|(energy, vn)| Before { energy, vn })
-                .collect();
-            block_stats(
-                &before,
-                &outs,
-                n,
-                self.plan,
-                &mut derived,
-                &mut base,
-                &mut diff,
-                acc,
-            );
-            for (la, out) in acc.laws.iter_mut().zip(&outs) {
-                if let Some(fr) = la.friction.as_mut() {
-                    record_friction(out, n, fr);
-                }
-            }
-            lo += n as u64;
+            lo += chunk as u64;
         }
     }
 
-    /// One sample under one law: its flights and bounces into `acc`, its
-    /// first impact into lane `s` of `first`.
-    #[allow(clippy::too_many_arguments)]
-    fn simulate<const N: usize>(
-        &self,
-        law: Law,
-        start: Motion,
-        s: usize,
-        first: &mut Firsts<'_, N>,
-        la: &mut LawAcc,
-        acc: &mut DropAcc,
-        rows: &mut Option<(&mut SampleRows, u64, u32)>,
-    ) {
-        let scene = self.scene;
-        let fx = scene.effects();
-        let body = scene.body();
-        let bounces = fx.bounces as usize;
-        // The energy floor is relative to the kinetic energy of the first impact.
-        let mut t0 = f64::INFINITY;
-        let mut m = start;
-        let mut impacts = 0usize;
-        let (mut since, mut clock) = (0.0, 0.0);
-        let mut masks = [0usize; crate::stats::drops::SEQUENCE_IMPACTS];
-        acc.samples += 1;
-        first.none(s, 0);
-        // A few non-impacts (a touch without approach) are tolerated per bounce.
-        let mut attempts = 0;
-        let ending = loop {
-            if impacts == bounces {
-                break Ending::BounceLimit;
-            }
-            if attempts == 4 * bounces + 4 {
-                break Ending::Stalled;
-            }
-            attempts += 1;
-            let (hit, o, coupled_fallback) = match self.flight.next(body, &m, law) {
-                Ok(x) => x,
-                Err(Stop::FlewAway) => break Ending::FlewAway,
-                Err(Stop::Unsolved) => {
-                    if impacts == 0 {
-                        first.none(s, UNSOLVED);
-                    }
-                    break Ending::Unsolved;
+    /// The walks of samples `first..` (one per log, sample-major, then by
+    /// law) into `logs`.
+    fn walks(&self, first: u64, logs: &mut [Log]) {
+        let laws = self.scene.laws();
+        for (k, log) in logs.iter_mut().enumerate() {
+            let (i, law) = (first + (k / laws.len()) as u64, laws[k % laws.len()]);
+            log.clear();
+            let mut walk = Walk::new(start_of(&self.start, &self.sampler, &self.boxes, i));
+            let ending = loop {
+                if let Some(e) = walk.fly(self.scene.effects().bounces as usize) {
+                    break e;
+                }
+                if let Some(e) = self.reference_flight(law, &mut walk, log) {
+                    break e;
                 }
             };
-            since += hit.time;
-            clock += hit.time;
-            m = hit.motion;
-            let mask = o
-                .contacts
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| c.impulse > 0.0)
-                .fold(0usize, |s, (i, _)| s | 1 << i);
-            if mask == 0 {
-                // Touched without approaching: fly on.
-                continue;
-            }
-            if impacts == 0 {
-                t0 = o.energy_before;
-                let before = State {
-                    velocity: m.velocity,
-                    omega: m.omega,
-                };
-                first.impact(s, body, &before, &o, &self.planes);
-                if let Some(fr) = la.friction.as_mut() {
-                    fr.coupled_fallback += coupled_fallback as u64;
-                }
-            }
-            if let Some(slot) = masks.get_mut(impacts) {
-                *slot = mask;
-            }
-            let ratio = o.energy_after / o.energy_before;
-            let b = &mut acc.bounces[impacts];
-            b.reached += 1;
-            b.sets[mask] += 1;
-            b.energy_ratio.push(ratio);
-            b.interval.push(since);
-            b.speed_before.push(m.velocity.length());
-            b.energy_gain += o.flags.energy_gain as u64;
-            b.degenerate += o.flags.degenerate as u64;
-            let second = second_smallest(&hit.distances);
-            if let Some(second) = second {
-                for (k, &tol) in SIMULTANEITY_TOLERANCES.iter().enumerate() {
-                    b.within[k] += (second <= tol) as u64;
-                }
-            }
-            if let Some((r, sample, law_index)) = rows.as_mut() {
-                r.push_drop(&DropRow {
-                    sample: *sample,
-                    law: *law_index,
-                    bounce: impacts as u32 + 1,
-                    planes: mask as u32,
-                    time: clock,
-                    interval: since,
-                    motion: &m,
-                    outcome: &o,
-                    distances: &hit.distances,
-                });
-            }
-            impacts += 1;
-            since = 0.0;
-            m.velocity = o.after.velocity;
-            m.omega = o.after.omega;
-            if o.energy_after < fx.energy_floor * t0 {
-                break Ending::CameToRest;
-            }
-        };
-        acc.endings[ending as usize] += 1;
-        acc.impacts[impacts] += 1;
-        let cell = acc.sequence_cell(&masks);
-        acc.sequences[cell] += 1;
-        // Which body axis is closest to vertical (world Z) at the end.
-        let z = m.rotation.row(2).abs();
-        let axis = if z.x >= z.y && z.x >= z.z {
-            0
-        } else if z.y >= z.z {
-            1
-        } else {
-            2
-        };
-        acc.final_axis_up[axis] += 1;
-    }
-}
-
-/// The second-smallest of the planes' distances (none with one plane).
-fn second_smallest(d: &[f64]) -> Option<f64> {
-    let (mut a, mut b) = (f64::INFINITY, f64::INFINITY);
-    for &x in d {
-        if x < a {
-            b = a;
-            a = x;
-        } else if x < b {
-            b = x;
+            walk.finish(ending, log);
         }
     }
-    (d.len() > 1).then_some(b)
+
+    /// One flight of `walk` and its impact by the f64 reference: the
+    /// ending if the walk is over.
+    fn reference_flight(&self, law: Law, walk: &mut Walk, log: &mut Log) -> Option<Ending> {
+        let fx = self.scene.effects();
+        match self.flight.next(self.scene.body(), &walk.motion, law) {
+            Ok((hit, o, coupled)) => {
+                let strike = Strike::of(&o, &hit.distances);
+                walk.struck(hit.time, hit.motion, &strike, coupled, fx.energy_floor, log)
+            }
+            Err(Stop::FlewAway) => Some(Ending::FlewAway),
+            Err(Stop::Unsolved) => Some(walk.unsolved(log)),
+        }
+    }
 }
 
 /// A sample's first impact with the given rotation in flight and

@@ -13,7 +13,9 @@ use crate::kernel::{
     ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTE, RECOMPUTED, UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::Real;
-use crate::physics::{solve_impact, Ellipsoid, ImpactOutcome, Law, Pose, State};
+use crate::physics::{
+    solve_impact, ContactOutcome, Ellipsoid, Flags, ImpactOutcome, Law, Pose, State,
+};
 use crate::sampler::Inputs;
 use glam::DVec3;
 
@@ -98,13 +100,36 @@ pub fn recompute<T: Real, const N: usize>(
     }
 }
 
+/// One recorded contact of an impact, as a lane records it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactRecord {
+    /// Touching and `v_n < 0` before the impact.
+    pub approaching: bool,
+    /// λ (N·s).
+    pub impulse: f64,
+    pub normal_velocity_after: f64,
+    /// `|f|`, the tangential impulse's magnitude (N·s).
+    pub tangential: f64,
+    /// `|c⁺_t|` (m/s).
+    pub sliding_after: f64,
+}
+
+impl From<&ContactOutcome> for ContactRecord {
+    fn from(c: &ContactOutcome) -> Self {
+        Self {
+            approaching: c.approaching,
+            impulse: c.impulse,
+            normal_velocity_after: c.normal_velocity_after,
+            tangential: c.tangential_impulse.length(),
+            sliding_after: c.sliding_after,
+        }
+    }
+}
+
 /// Writes a reference outcome into lane `s` of `out`: per recorded contact
-/// (`planes`, indices into the outcome's contacts, in lane order) its
-/// impulse, normal velocity after, |f| and |c⁺_t|, and its approaching,
-/// active and sticking bits; the velocities and energy after; the
-/// outcome's flags, over `status`. The one scalar impact recorder: the
-/// contact fallback and the drop body both record impacts through it, and
-/// the block statistics read the lanes alike.
+/// (`planes`, indices into the outcome's contacts, in lane order) as
+/// [`write_record`] does. The contact fallback and the drop reference
+/// record impacts through it.
 pub fn write_outcome<T: Real, const N: usize>(
     o: &ImpactOutcome,
     before: &State,
@@ -112,14 +137,33 @@ pub fn write_outcome<T: Real, const N: usize>(
     planes: &[usize],
     out: &mut LawOut<T, N>,
     s: usize,
+    status: u32,
+) {
+    let contacts = planes.iter().map(|&p| ContactRecord::from(&o.contacts[p]));
+    let after = (&o.after, o.energy_after, o.flags);
+    write_record(after, contacts, before, body, out, s, status);
+}
+
+/// Writes an impact into lane `s` of `out`: per recorded contact (in lane
+/// order) its impulse, normal velocity after, |f| and |c⁺_t|, and its
+/// approaching, active and sticking bits; the velocities and energy
+/// after; the impact's flags, over `status`. The one scalar impact
+/// recorder: every impact a lane pass did not write itself comes through
+/// it, and the block statistics read the lanes alike.
+pub fn write_record<T: Real, const N: usize>(
+    (after, energy_after, flags): (&State, f64, Flags),
+    contacts: impl Iterator<Item = ContactRecord>,
+    before: &State,
+    body: &Ellipsoid,
+    out: &mut LawOut<T, N>,
+    s: usize,
     mut status: u32,
 ) {
-    let stuck_at = crate::physics::friction::sticking_threshold(body, before, &o.after);
-    for (i, &p) in planes.iter().enumerate() {
-        let ct = &o.contacts[p];
+    let stuck_at = crate::physics::friction::sticking_threshold(body, before, after);
+    for (i, ct) in contacts.enumerate() {
         out.lambda[i][s] = T::from_f64(ct.impulse);
         out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
-        out.tangential[i][s] = T::from_f64(ct.tangential_impulse.length());
+        out.tangential[i][s] = T::from_f64(ct.tangential);
         out.sliding[i][s] = T::from_f64(ct.sliding_after);
         status |= bit(ct.impulse > 0.0, active_bit(i))
             | bit(ct.approaching, approaching_bit(i))
@@ -129,15 +173,15 @@ pub fn write_outcome<T: Real, const N: usize>(
             );
     }
     for k in 0..3 {
-        out.v_after[k][s] = T::from_f64(o.after.velocity[k]);
-        out.w_after[k][s] = T::from_f64(o.after.omega[k]);
+        out.v_after[k][s] = T::from_f64(after.velocity[k]);
+        out.w_after[k][s] = T::from_f64(after.omega[k]);
     }
-    out.t_after[s] = T::from_f64(o.energy_after);
-    status |= bit(o.flags.energy_gain, ENERGY_GAIN)
-        | bit(o.flags.degenerate, DEGENERATE)
-        | bit(o.flags.jammed, JAMMED)
-        | bit(o.flags.unsolved, UNSOLVED)
-        | bit(o.flags.ambiguous, AMBIGUOUS)
-        | bit(o.flags.unconverged, UNCONVERGED);
+    out.t_after[s] = T::from_f64(energy_after);
+    status |= bit(flags.energy_gain, ENERGY_GAIN)
+        | bit(flags.degenerate, DEGENERATE)
+        | bit(flags.jammed, JAMMED)
+        | bit(flags.unsolved, UNSOLVED)
+        | bit(flags.ambiguous, AMBIGUOUS)
+        | bit(flags.unconverged, UNCONVERGED);
     out.status[s] = status;
 }

@@ -36,7 +36,7 @@ use crate::config::Scene;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 
-pub use fallback::{check_extra_planes, recompute, write_outcome};
+pub use fallback::{check_extra_planes, recompute, write_outcome, write_record, ContactRecord};
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
 pub use impulses::{impulses, post};

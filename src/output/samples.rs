@@ -6,13 +6,14 @@
 use glam::{DMat3, DQuat};
 
 use crate::config::{Placement, Precision, Scene};
+use crate::drop::Strike;
 use crate::kernel::{
     active_mask, sticking_mask, Geometry, LawOut, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
     UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::{ImpactOutcome, Motion};
+use crate::physics::Motion;
 use crate::sampler::Inputs;
 
 /// The width of an integer column: every value the column can take fits.
@@ -545,8 +546,7 @@ pub struct DropRow<'a> {
     pub interval: f64,
     /// At the moment of impact, before it.
     pub motion: &'a Motion,
-    pub outcome: &'a ImpactOutcome,
-    pub distances: &'a [f64],
+    pub strike: &'a Strike,
 }
 
 impl SampleRows {
@@ -555,7 +555,7 @@ impl SampleRows {
         self.index.push(r.sample);
         self.law.push(r.law);
         let m = r.motion;
-        let o = r.outcome;
+        let o = r.strike;
         let q = DQuat::from_mat3(&m.rotation);
         let q = if q.w < 0.0 { -q } else { q };
         let mut cols = Columns {
@@ -592,10 +592,11 @@ impl SampleRows {
         {
             put(v);
         }
-        for (c, &d) in o.contacts.iter().zip(r.distances) {
+        for i in 0..o.planes {
+            let c = &o.contacts[i];
             for v in [
-                d,
-                c.normal_velocity_before,
+                o.distance[i],
+                o.normal_velocity_before[i],
                 c.normal_velocity_after,
                 c.impulse,
             ] {

@@ -1,0 +1,282 @@
+//! One sample's walk under one law: its flights and bounces until it comes
+//! to rest, flies away, reaches the bounce limit or stalls, recorded in a
+//! [`Log`] that is replayed into the accumulators in sample order. Flights
+//! and impacts may be computed in any order and by any solver (the lanes
+//! of [`super::wave`] or the reference); what a sample contributes, and in
+//! which order, depends only on its index.
+
+use crate::physics::{Motion, State};
+use crate::stats::accumulators::LawAcc;
+use crate::stats::drops::{DropAcc, Ending, SEQUENCE_IMPACTS, SIMULTANEITY_TOLERANCES};
+
+use super::strike::Strike;
+use super::Firsts;
+use crate::output::samples::{DropRow, SampleRows};
+
+/// Where a walk stands between flights.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Walk {
+    /// Where the next flight starts.
+    pub(crate) motion: Motion,
+    /// The kinetic energy brought to the first impact (the energy floor is
+    /// relative to it).
+    t0: f64,
+    impacts: usize,
+    /// Time since the last impact, and since the release (s).
+    since: f64,
+    clock: f64,
+    masks: [usize; SEQUENCE_IMPACTS],
+    /// Flights flown: a few non-impacts (a touch without approach) are
+    /// tolerated per bounce.
+    attempts: usize,
+}
+
+/// One bounce, as the bounce statistics read it.
+#[derive(Debug, Clone, Copy)]
+struct Bounce {
+    mask: usize,
+    ratio: f64,
+    interval: f64,
+    speed_before: f64,
+    energy_gain: bool,
+    degenerate: bool,
+    /// The second-smallest plane distance (none with one plane).
+    second: Option<f64>,
+}
+
+/// The sample's first impact, for the block statistics.
+#[derive(Debug, Clone, Copy)]
+enum First {
+    None,
+    Unsolved,
+    Impact {
+        strike: Strike,
+        before: State,
+        coupled_fallback: bool,
+    },
+}
+
+/// What a walk recorded.
+#[derive(Debug, Clone)]
+pub(crate) struct Log {
+    bounces: Vec<Bounce>,
+    /// With per-impact rows: the motion at each impact, its strike, the
+    /// time from release and the interval since the last impact.
+    rows: Vec<(Motion, Strike, f64, f64)>,
+    keep_rows: bool,
+    first: First,
+    ending: Ending,
+    impacts: usize,
+    masks: [usize; SEQUENCE_IMPACTS],
+    /// The body axis closest to vertical at the end.
+    axis_up: usize,
+}
+
+impl Log {
+    pub(crate) fn new(keep_rows: bool) -> Self {
+        Self {
+            bounces: Vec::new(),
+            rows: Vec::new(),
+            keep_rows,
+            first: First::None,
+            ending: Ending::BounceLimit,
+            impacts: 0,
+            masks: [0; SEQUENCE_IMPACTS],
+            axis_up: 0,
+        }
+    }
+
+    /// Empties the log for the next walk.
+    pub(crate) fn clear(&mut self) {
+        self.bounces.clear();
+        self.rows.clear();
+        self.first = First::None;
+    }
+
+    /// Replays the walk of sample `sample` under law `law` into its
+    /// accumulators, its first impact into lane `s` of `first` and its
+    /// impacts into `rows`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn replay<const N: usize>(
+        &self,
+        (sample, law): (u64, u32),
+        s: usize,
+        first: &mut Firsts<'_, N>,
+        body: &crate::physics::Ellipsoid,
+        la: &mut LawAcc,
+        acc: &mut DropAcc,
+        rows: Option<&mut SampleRows>,
+    ) {
+        acc.samples += 1;
+        match &self.first {
+            First::None => first.none(s, 0),
+            First::Unsolved => first.none(s, crate::kernel::UNSOLVED),
+            First::Impact {
+                strike,
+                before,
+                coupled_fallback,
+            } => {
+                first.impact(s, body, before, strike);
+                if let Some(fr) = la.friction.as_mut() {
+                    fr.coupled_fallback += *coupled_fallback as u64;
+                }
+            }
+        }
+        for (k, b) in self.bounces.iter().enumerate() {
+            let r = &mut acc.bounces[k];
+            r.reached += 1;
+            r.sets[b.mask] += 1;
+            r.energy_ratio.push(b.ratio);
+            r.interval.push(b.interval);
+            r.speed_before.push(b.speed_before);
+            r.energy_gain += b.energy_gain as u64;
+            r.degenerate += b.degenerate as u64;
+            if let Some(second) = b.second {
+                for (j, &tol) in SIMULTANEITY_TOLERANCES.iter().enumerate() {
+                    r.within[j] += (second <= tol) as u64;
+                }
+            }
+        }
+        if let Some(out) = rows {
+            for (k, (motion, strike, time, interval)) in self.rows.iter().enumerate() {
+                out.push_drop(&DropRow {
+                    sample,
+                    law,
+                    bounce: k as u32 + 1,
+                    planes: strike.mask() as u32,
+                    time: *time,
+                    interval: *interval,
+                    motion,
+                    strike,
+                });
+            }
+        }
+        acc.endings[self.ending as usize] += 1;
+        acc.impacts[self.impacts] += 1;
+        let cell = acc.sequence_cell(&self.masks);
+        acc.sequences[cell] += 1;
+        acc.final_axis_up[self.axis_up] += 1;
+    }
+}
+
+impl Walk {
+    pub(crate) fn new(start: Motion) -> Self {
+        Self {
+            motion: start,
+            t0: f64::INFINITY,
+            impacts: 0,
+            since: 0.0,
+            clock: 0.0,
+            masks: [0; SEQUENCE_IMPACTS],
+            attempts: 0,
+        }
+    }
+
+    /// Before a flight: the ending if the walk is over (the bounce limit,
+    /// or too many flights without an impact), else `None` and the flight
+    /// is counted.
+    pub(crate) fn fly(&mut self, bounces: usize) -> Option<Ending> {
+        if self.impacts == bounces {
+            return Some(Ending::BounceLimit);
+        }
+        if self.attempts == 4 * bounces + 4 {
+            return Some(Ending::Stalled);
+        }
+        self.attempts += 1;
+        None
+    }
+
+    /// The flight ended `time` after its start at `motion` (the state just
+    /// before the impact) with `strike`. The ending if the walk is over
+    /// (its energy fell below `floor` of the first impact's), else `None`
+    /// and the next flight starts from the state after the impact (or, if
+    /// no plane took an impulse, from `motion`).
+    pub(crate) fn struck(
+        &mut self,
+        time: f64,
+        motion: Motion,
+        strike: &Strike,
+        coupled_fallback: bool,
+        floor: f64,
+        log: &mut Log,
+    ) -> Option<Ending> {
+        self.since += time;
+        self.clock += time;
+        self.motion = motion;
+        let mask = strike.mask();
+        if mask == 0 {
+            // Touched without approaching: fly on.
+            return None;
+        }
+        if self.impacts == 0 {
+            self.t0 = strike.energy_before;
+            log.first = First::Impact {
+                strike: *strike,
+                before: State {
+                    velocity: motion.velocity,
+                    omega: motion.omega,
+                },
+                coupled_fallback,
+            };
+        }
+        if let Some(slot) = self.masks.get_mut(self.impacts) {
+            *slot = mask;
+        }
+        log.bounces.push(Bounce {
+            mask,
+            ratio: strike.energy_after / strike.energy_before,
+            interval: self.since,
+            speed_before: motion.velocity.length(),
+            energy_gain: strike.flags.energy_gain,
+            degenerate: strike.flags.degenerate,
+            second: second_smallest(strike.distances()),
+        });
+        if log.keep_rows {
+            log.rows.push((motion, *strike, self.clock, self.since));
+        }
+        self.impacts += 1;
+        self.since = 0.0;
+        self.motion.velocity = strike.after.velocity;
+        self.motion.omega = strike.after.omega;
+        (strike.energy_after < floor * self.t0).then_some(Ending::CameToRest)
+    }
+
+    /// The impact could not be solved: the walk ends.
+    pub(crate) fn unsolved(&self, log: &mut Log) -> Ending {
+        if self.impacts == 0 {
+            log.first = First::Unsolved;
+        }
+        Ending::Unsolved
+    }
+
+    /// The walk ended: its ending, impacts, sequence and final attitude
+    /// into `log`.
+    pub(crate) fn finish(&self, ending: Ending, log: &mut Log) {
+        log.ending = ending;
+        log.impacts = self.impacts;
+        log.masks = self.masks;
+        // Which body axis is closest to vertical (world Z) at the end.
+        let z = self.motion.rotation.row(2).abs();
+        log.axis_up = if z.x >= z.y && z.x >= z.z {
+            0
+        } else if z.y >= z.z {
+            1
+        } else {
+            2
+        };
+    }
+}
+
+/// The second-smallest of the planes' distances (none with one plane).
+fn second_smallest(d: &[f64]) -> Option<f64> {
+    let (mut a, mut b) = (f64::INFINITY, f64::INFINITY);
+    for &x in d {
+        if x < a {
+            b = a;
+            a = x;
+        } else if x < b {
+            b = x;
+        }
+    }
+    (d.len() > 1).then_some(b)
+}
