@@ -225,6 +225,27 @@ impl Scene {
             Placement::Drop(_) => &[],
         }
     }
+    /// The same body and planes at contact with the planes `touching` (in
+    /// scene order, one to three), for the contact kernel: the impacts of a
+    /// drop scene, which planes meet at each decided in flight. Only the
+    /// kernel's constants are read from it (no centre is placed).
+    pub fn contact_view(&self, touching: &[usize]) -> Scene {
+        assert!(
+            (1..=3).contains(&touching.len()) && touching.windows(2).all(|w| w[0] < w[1]),
+            "touching planes {touching:?}"
+        );
+        let mut view = self.clone();
+        let friction = touching
+            .iter()
+            .any(|&i| self.planes[i].plane.friction() > 0.0);
+        view.effects.friction = friction;
+        view.effects.flight = false;
+        view.placement = Placement::Contact(Contact {
+            touching: touching.to_vec(),
+            offsets: vec![DVec3::ZERO; touching.len()],
+        });
+        view
+    }
     /// The planes whose impulses a run records, in scene order: the
     /// touching planes of a contact scene, every plane of a drop scene.
     pub fn recorded_planes(&self) -> Vec<usize> {

@@ -36,7 +36,9 @@ mod strike;
 mod walk;
 
 pub use strike::Strike;
-use walk::{Log, Walk};
+use walk::{How, Log, Walk};
+
+mod wave;
 
 /// The start of sample `i`: drawn orientation and velocities, centre
 /// uniform in the drop box (its own stream, so the engine's draws are
@@ -149,6 +151,9 @@ pub struct DropCtx<'a> {
     boxes: CounterRng,
     flight: Flight,
     plan: StatsPlan,
+    /// Walks by the f64 reference alone (else in lanes of the scene's
+    /// precision).
+    reference: bool,
 }
 
 /// One law's first impacts of a block, in lanes, for the block statistics:
@@ -166,12 +171,27 @@ impl<const N: usize> Firsts<'_, N> {
     }
 
     /// Lane `s`: the impact `o` of a body that came in with `before`.
-    fn impact(&mut self, s: usize, body: &Ellipsoid, before: &State, o: &Strike) {
+    fn impact(&mut self, s: usize, body: &Ellipsoid, before: &State, o: &Strike, status: u32) {
         self.energy[s] = o.energy_before;
         for i in 0..N {
             self.vn[i][s] = o.normal_velocity_before[i];
         }
-        o.write(before, body, self.out, s, 0);
+        o.write(before, body, self.out, s, status);
+    }
+}
+
+/// A worker's lanes, in the scene's precision.
+enum Lanes<const N: usize> {
+    F32(Box<wave::Wave<f32, N>>),
+    F64(Box<wave::Wave<f64, N>>),
+}
+
+impl<const N: usize> Lanes<N> {
+    fn new(ctx: &DropCtx) -> Self {
+        match ctx.scene.precision() {
+            crate::config::Precision::F32 => Self::F32(Box::new(wave::Wave::new(ctx))),
+            crate::config::Precision::F64 => Self::F64(Box::new(wave::Wave::new(ctx))),
+        }
     }
 }
 
@@ -190,6 +210,16 @@ impl<'a> DropCtx<'a> {
             flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
             // |ω⁺| changes in flight and at impacts: computed per sample.
             plan: StatsPlan::of(scene, keep).per_sample_spin(),
+            reference: false,
+        }
+    }
+
+    /// The same runs with every flight and impact by the f64 reference, one
+    /// walk after the other (what the lanes are tested against).
+    pub fn by_reference(self) -> Self {
+        Self {
+            reference: true,
+            ..self
         }
     }
 
@@ -228,13 +258,18 @@ impl<'a> DropCtx<'a> {
         let (mut derived, mut base) = (Derived::<f64, N>::new(), Derived::<f64, N>::new());
         let mut diff = Box::new([0.0; BLOCK]);
         let mut logs: Vec<Log> = Vec::new();
+        let mut lanes = Lanes::<N>::new(self);
         let end = first + count;
         let mut lo = first;
         while lo < end {
             let chunk = ((end - lo) as usize).min(CHUNK);
             logs.resize_with(chunk * laws.len(), || Log::new(rows.is_some()));
             let logs = &mut logs[..chunk * laws.len()];
-            self.walks(lo, logs);
+            match &mut lanes {
+                _ if self.reference => self.walks(lo, logs),
+                Lanes::F32(w) => self.walks_in_lanes(lo, logs, w),
+                Lanes::F64(w) => self.walks_in_lanes(lo, logs, w),
+            }
             for (b, block) in logs.chunks(BLOCK * laws.len()).enumerate() {
                 let n = block.len() / laws.len();
                 for s in 0..n {
@@ -302,7 +337,11 @@ impl<'a> DropCtx<'a> {
         match self.flight.next(self.scene.body(), &walk.motion, law) {
             Ok((hit, o, coupled)) => {
                 let strike = Strike::of(&o, &hit.distances);
-                walk.struck(hit.time, hit.motion, &strike, coupled, fx.energy_floor, log)
+                let how = How {
+                    coupled_fallback: coupled,
+                    recomputed: false,
+                };
+                walk.struck(hit.time, hit.motion, &strike, how, fx.energy_floor, log)
             }
             Err(Stop::FlewAway) => Some(Ending::FlewAway),
             Err(Stop::Unsolved) => Some(walk.unsolved(log)),

@@ -44,6 +44,15 @@ struct Bounce {
     second: Option<f64>,
 }
 
+/// How an impact was solved.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct How {
+    /// `stronge` on several planes, solved by `newton`.
+    pub(crate) coupled_fallback: bool,
+    /// By the f64 reference, where lanes flagged it.
+    pub(crate) recomputed: bool,
+}
+
 /// The sample's first impact, for the block statistics. (Logs are reused
 /// from chunk to chunk; a boxed strike would be an allocation per walk.)
 #[derive(Debug, Clone, Copy)]
@@ -54,7 +63,7 @@ enum First {
     Impact {
         strike: Strike,
         before: State,
-        coupled_fallback: bool,
+        how: How,
     },
 }
 
@@ -67,6 +76,9 @@ pub(crate) struct Log {
     rows: Vec<(Motion, Strike, f64, f64)>,
     keep_rows: bool,
     first: First,
+    /// Flights and impacts the lanes left to the f64 reference.
+    pub(crate) reference_flights: u32,
+    pub(crate) reference_impacts: u32,
     ending: Ending,
     impacts: usize,
     masks: [usize; SEQUENCE_IMPACTS],
@@ -81,6 +93,8 @@ impl Log {
             rows: Vec::new(),
             keep_rows,
             first: First::None,
+            reference_flights: 0,
+            reference_impacts: 0,
             ending: Ending::BounceLimit,
             impacts: 0,
             masks: [0; SEQUENCE_IMPACTS],
@@ -93,6 +107,8 @@ impl Log {
         self.bounces.clear();
         self.rows.clear();
         self.first = First::None;
+        self.reference_flights = 0;
+        self.reference_impacts = 0;
     }
 
     /// Replays the walk of sample `sample` under law `law` into its
@@ -116,11 +132,16 @@ impl Log {
             First::Impact {
                 strike,
                 before,
-                coupled_fallback,
+                how,
             } => {
-                first.impact(s, body, before, strike);
+                let status = if how.recomputed {
+                    crate::kernel::RECOMPUTED
+                } else {
+                    0
+                };
+                first.impact(s, body, before, strike, status);
                 if let Some(fr) = la.friction.as_mut() {
-                    fr.coupled_fallback += *coupled_fallback as u64;
+                    fr.coupled_fallback += how.coupled_fallback as u64;
                 }
             }
         }
@@ -153,6 +174,8 @@ impl Log {
                 });
             }
         }
+        acc.reference_flights += self.reference_flights as u64;
+        acc.reference_impacts += self.reference_impacts as u64;
         acc.endings[self.ending as usize] += 1;
         acc.impacts[self.impacts] += 1;
         let cell = acc.sequence_cell(&self.masks);
@@ -198,7 +221,7 @@ impl Walk {
         time: f64,
         motion: Motion,
         strike: &Strike,
-        coupled_fallback: bool,
+        how: How,
         floor: f64,
         log: &mut Log,
     ) -> Option<Ending> {
@@ -218,7 +241,7 @@ impl Walk {
                     velocity: motion.velocity,
                     omega: motion.omega,
                 },
-                coupled_fallback,
+                how,
             };
         }
         if let Some(slot) = self.masks.get_mut(self.impacts) {

@@ -275,13 +275,16 @@ multiversioned! {
 /// every lane shares (planes, gravity, body, tolerance, horizon).
 pub struct FlightLanes<T, const N: usize> {
     pub pose: Box<PoseLanes<T>>,
-    centre: [[T; BLOCK]; 3],
+    /// Per plane, the centre's signed distance at the start (n·c₀ + e,
+    /// from f64): distances are the start's plus the displacement's, so
+    /// that their rounding is the body's and the flight's, not that of
+    /// where the scene lies.
+    gap0: [[T; BLOCK]; N],
     velocity: [[T; BLOCK]; 3],
     w_bound: [T; BLOCK],
     curvature: [T; BLOCK],
     start: [T; BLOCK],
     normal: [[T; 3]; N],
-    offset: [T; N],
     gravity: [T; 3],
     /// Per plane, gravity's pull toward it: max(0, −n·g).
     gravity_toward: [T; N],
@@ -296,33 +299,70 @@ pub struct FlightLanes<T, const N: usize> {
     horizon: T,
 }
 
-/// Where the time-of-impact search of a block stands, per lane.
+/// Where the time-of-impact search of a block stands, per lane. A lane's
+/// search is begun ([`Times::begin`]) and advanced with the block
+/// ([`advance`]) until it is `done`; a wavefront begins the next flight in a
+/// lane as soon as its search is done, while the other lanes go on.
 pub struct Times<T> {
     /// Time from the start of the flight (s): at the impact where `hit`.
     pub time: [T; BLOCK],
     pub hit: [bool; BLOCK],
-    /// The search ended (an impact, or none within the horizon); lanes
-    /// still open after the iteration budget go to the reference.
+    /// The search ended: an impact, none within the horizon, or the lane's
+    /// step budget spent (`stuck`: the reference then flies it).
     pub done: [bool; BLOCK],
+    pub stuck: [bool; BLOCK],
+    /// Steps taken by the lane's search.
+    pub steps: [u32; BLOCK],
+    /// Planes armed (bit i): clear of the tolerance once, so that reaching
+    /// it is an impact.
+    armed: [u32; BLOCK],
+    /// The lane's planes have not been armed yet (a search just begun).
+    fresh: [bool; BLOCK],
 }
 
 impl<T: Real> Times<T> {
+    /// Every lane idle.
     pub fn new() -> Box<Self> {
         Box::new(Self {
             time: [T::ZERO; BLOCK],
             hit: [false; BLOCK],
-            done: [false; BLOCK],
+            done: [true; BLOCK],
+            stuck: [false; BLOCK],
+            steps: [0; BLOCK],
+            armed: [0; BLOCK],
+            fresh: [false; BLOCK],
         })
+    }
+
+    /// Lane `s` begins the search of the flight set in `f` (idle if that
+    /// flight is not closed-form).
+    pub fn begin<const N: usize>(&mut self, f: &FlightLanes<T, N>, s: usize) {
+        self.time[s] = f.start[s].min(f.horizon);
+        self.hit[s] = false;
+        self.done[s] = !f.pose.closed(s);
+        self.stuck[s] = false;
+        self.steps[s] = 0;
+        self.armed[s] = 0;
+        self.fresh[s] = true;
+    }
+
+    /// Lane `s` searches nothing.
+    pub fn idle(&mut self, s: usize) {
+        self.hit[s] = false;
+        self.done[s] = true;
+        self.stuck[s] = false;
     }
 }
 
 impl<T: Real, const N: usize> FlightLanes<T, N> {
     /// An empty block for `body` and `planes` (at most six). The search
     /// stops within `tolerance` of a plane, but never closer than 256 ulp
-    /// of the type at the scene's length (the largest semi-axis, plane
-    /// offset or 1 m): below that a position cannot be resolved. In f64
-    /// that floor is some 6e-14 m, far below the default tolerance; in f32
-    /// it is 3e-5 m per metre.
+    /// of the type at the body's largest semi-axis a: distances are
+    /// reckoned from the flight's start (f64) plus the displacement and
+    /// less the support (at most a), so below that they cannot be resolved.
+    /// In f64 the floor is some 6e-14 m per metre of a, far below the
+    /// default tolerance; in f32 it is 3e-5 m per metre of a (1.5e-5 m for
+    /// drop_corner's body, 9e-7 m for drop_dice's).
     pub fn new(
         body: &crate::physics::Ellipsoid,
         planes: &[crate::physics::Plane],
@@ -336,13 +376,12 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
         let z = [T::ZERO; BLOCK];
         Box::new(Self {
             pose: PoseLanes::new(),
-            centre: [z; 3],
+            gap0: [z; N],
             velocity: [z; 3],
             w_bound: z,
             curvature: z,
             start: z,
             normal: std::array::from_fn(|i| planes[i].normal().to_array().map(t)),
-            offset: std::array::from_fn(|i| t(planes[i].offset())),
             gravity: gravity.to_array().map(t),
             gravity_toward: std::array::from_fn(|i| t((-planes[i].normal().dot(gravity)).max(0.0))),
             planes: planes.to_vec(),
@@ -350,14 +389,15 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
             tolerance64: tolerance,
             semi: semi.to_array().map(t),
             spread: t(semi.max_element() - semi.min_element()),
-            tolerance: t(tolerance.max(
-                256.0 * T::EPSILON.to_f64() * {
-                    let offsets = planes.iter().map(|p| p.offset().abs());
-                    offsets.fold(semi.max_element().max(1.0), f64::max)
-                },
-            )),
+            tolerance: t(tolerance.max(256.0 * T::EPSILON.to_f64() * semi.max_element())),
             horizon: t(horizon),
         })
+    }
+
+    /// The distance at which a search stops (m): the tolerance asked for,
+    /// or the type's floor.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance.to_f64()
     }
 
     /// Lane `s` flies from `m`: its closed-form motion, spin bound and
@@ -381,8 +421,10 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
         let w2 = w_bound * w_bound;
         let curvature = w2 * a_max * a_max / a_min + a_max * w2 + (a_max - a_min) * w2 * j_spread;
         for k in 0..3 {
-            self.centre[k][s] = t(m.centre[k]);
             self.velocity[k][s] = t(m.velocity[k]);
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            self.gap0[i][s] = t(p.signed_distance(m.centre));
         }
         self.w_bound[s] = t(w_bound);
         self.curvature[s] = t(curvature);
@@ -409,9 +451,8 @@ fn gap_and_rate<T: Real, const N: usize>(
     i: usize,
 ) -> (T, T, T) {
     let n = f.normal[i];
-    let centre: [T; 3] = std::array::from_fn(|k| {
-        f.centre[k][s] + f.velocity[k][s] * t + T::HALF * f.gravity[k] * t * t
-    });
+    let moved: [T; 3] =
+        std::array::from_fn(|k| f.velocity[k][s] * t + T::HALF * f.gravity[k] * t * t);
     let velocity: [T; 3] = std::array::from_fn(|k| f.velocity[k][s] + f.gravity[k] * t);
     // u = Aᵀ n: column k of A dotted with n.
     let u: [T; 3] = std::array::from_fn(|k| {
@@ -420,7 +461,7 @@ fn gap_and_rate<T: Real, const N: usize>(
     let (a, b, c) = (f.semi[0], f.semi[1], f.semi[2]);
     let du = [a * u[0], b * u[1], c * u[2]];
     let support = (du[0] * du[0] + du[1] * du[1] + du[2] * du[2]).sqrt();
-    let distance = n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2] + f.offset[i] - support;
+    let distance = f.gap0[i][s] + (n[0] * moved[0] + n[1] * moved[1] + n[2] * moved[2]) - support;
     let inv = -T::ONE / support;
     let lever = [
         (b - c) * (b + c) * u[1] * u[2] * inv,
@@ -434,88 +475,115 @@ fn gap_and_rate<T: Real, const N: usize>(
 }
 
 /// The time of impact of every closed-form lane by the reference's safe
-/// steps (`physics::time_of_impact`): per plane the larger of its linear
-/// and quadratic bounds, the smallest over the planes, masked per lane.
-/// At most `budget` steps; lanes still open after that are not `done`.
+/// steps (`physics::time_of_impact`), at most `budget` steps per lane;
+/// lanes still open after that are `stuck`.
 pub fn times_of_impact<T: Real, const N: usize>(
     f: &FlightLanes<T, N>,
-    budget: usize,
+    budget: u32,
     poses_work: &mut Poses<T>,
     out: &mut Times<T>,
 ) {
-    let tol = f.tolerance;
-    let two = T::from_f64(2.0);
-    let mut armed = [0u32; BLOCK];
     for s in 0..BLOCK {
-        out.time[s] = f.start[s].min(f.horizon);
-        out.hit[s] = false;
-        out.done[s] = !f.pose.closed(s);
+        out.begin(f, s);
     }
-    poses(&f.pose, &out.time, poses_work);
-    for s in 0..BLOCK {
-        for i in 0..N {
-            let (d, v, _) = gap_and_rate(f, poses_work, s, out.time[s], i);
-            armed[s] |= ((d > tol || v < T::ZERO) as u32) << i;
-        }
-    }
-    for _ in 0..budget {
-        let mut open = 0usize;
-        for s in 0..BLOCK {
-            if out.done[s] {
-                continue;
-            }
-            let t = out.time[s];
-            let mut hit = false;
-            let mut dt = T::INFINITY;
-            for i in 0..N {
-                let (d, v, toward) = gap_and_rate(f, poses_work, s, t, i);
-                if d > tol {
-                    armed[s] |= 1 << i;
-                }
-                let gap = if armed[s] >> i & 1 == 1 {
-                    hit |= d <= tol;
-                    d - T::HALF * tol
-                } else {
-                    hit |= v < T::ZERO;
-                    d + tol
-                }
-                .max(T::ZERO);
-                let speed = (-toward).max(T::ZERO) + f.w_bound[s] * f.spread;
-                let acc = f.gravity_toward[i];
-                let linear = if acc > T::ZERO {
-                    two * gap / (speed + (speed * speed + T::from_f64(4.0) * acc * gap).sqrt())
-                } else if speed > T::ZERO {
-                    gap / speed
-                } else {
-                    T::INFINITY
-                };
-                let c = -v;
-                let b = acc + f.curvature[s];
-                let root = (c * c + two * b * gap).sqrt();
-                let quadratic = if c >= T::ZERO {
-                    two * gap / (c + root)
-                } else if b > T::ZERO {
-                    (root - c) / b
-                } else {
-                    T::INFINITY
-                };
-                dt = dt.min(linear.max(quadratic));
-            }
-            if hit {
-                out.hit[s] = true;
-                out.done[s] = true;
-                continue;
-            }
-            if t >= f.horizon || (dt == T::INFINITY && f.horizon == T::INFINITY) {
-                out.done[s] = true;
-                continue;
-            }
-            out.time[s] = t + dt.min(f.horizon - t).max(T::ZERO);
-            open += 1;
-        }
+    while advance(f, budget, budget, poses_work, out) > 0 {}
+}
+
+/// Up to `steps` steps of every open lane's search by the reference's safe
+/// steps: per plane the larger of its linear and quadratic bounds, the
+/// smallest over the planes, masked per lane. A lane whose search reaches
+/// `budget` steps is done and `stuck`. When it returns, `poses_work` holds
+/// every done lane's pose at its time (the pose of the impact, where
+/// `hit`). Returns the lanes still open.
+pub fn advance<T: Real, const N: usize>(
+    f: &FlightLanes<T, N>,
+    steps: u32,
+    budget: u32,
+    poses_work: &mut Poses<T>,
+    out: &mut Times<T>,
+) -> usize {
+    let mut open = 0;
+    for _ in 0..steps {
+        poses(&f.pose, &out.time, poses_work);
+        open = step(f, budget, poses_work, out);
         if open == 0 {
             break;
         }
-        poses(&f.pose, &out.time, poses_work);
+    }
+    open
+}
+
+multiversioned! {
+    /// One step of every open lane's search at its pose in `p`, without a
+    /// branch per lane: the reference's tests and bounds, selected per lane
+    /// (the same arithmetic, so f64 lanes step as the reference does).
+    /// Returns the lanes still open.
+    fn step<T: Real, const N: usize>(
+        f: &FlightLanes<T, N>,
+        budget: u32,
+        p: &Poses<T>,
+        out: &mut Times<T>,
+    ) -> usize {
+        crate::lanes::dispatch::align_frame();
+        let tol = f.tolerance;
+        let half_tol = T::HALF * tol;
+        let two = T::from_f64(2.0);
+        let four = T::from_f64(4.0);
+        let unbounded = f.horizon == T::INFINITY;
+        // One pass per plane over the lanes, then one to move them: simple
+        // loops the vectoriser takes (one loop over both did not vectorise).
+        let mut armed = out.armed;
+        let mut hit = [0u32; BLOCK];
+        let mut dt = [T::INFINITY; BLOCK];
+        for i in 0..N {
+            let acc = f.gravity_toward[i];
+            let pulled = acc > T::ZERO;
+            for s in 0..BLOCK {
+                let t = out.time[s];
+                let (d, v, toward) = gap_and_rate(f, p, s, t, i);
+                let fresh = out.fresh[s];
+                armed[s] |= ((d > tol || (fresh && v < T::ZERO)) as u32) << i;
+                let on = armed[s] >> i & 1 == 1;
+                hit[s] |= (if on { d <= tol } else { v < T::ZERO }) as u32;
+                let gap = select(on, d - half_tol, d + tol).max(T::ZERO);
+                let speed = (-toward).max(T::ZERO) + f.w_bound[s] * f.spread;
+                let root1 = (speed * speed + four * acc * gap).sqrt();
+                let linear = select(
+                    pulled || speed > T::ZERO,
+                    select(pulled, two * gap, gap) / select(pulled, speed + root1, speed),
+                    T::INFINITY,
+                );
+                let c = -v;
+                let b = acc + f.curvature[s];
+                let root = (c * c + two * b * gap).sqrt();
+                let ahead = c >= T::ZERO;
+                let quadratic = select(
+                    ahead || b > T::ZERO,
+                    select(ahead, two * gap, root - c) / select(ahead, c + root, b),
+                    T::INFINITY,
+                );
+                dt[s] = dt[s].min(linear.max(quadratic));
+            }
+        }
+        let mut open = 0usize;
+        for s in 0..BLOCK {
+            let live = !out.done[s];
+            let t = out.time[s];
+            let hit = hit[s] != 0;
+            let ends = !hit && (t >= f.horizon || (dt[s] == T::INFINITY && unbounded));
+            let moves = live && !hit && !ends;
+            let steps = out.steps[s] + moves as u32;
+            let stuck = moves && steps >= budget;
+            let moves = moves && !stuck;
+            out.hit[s] |= live && hit;
+            out.stuck[s] |= stuck;
+            out.done[s] = !moves;
+            out.steps[s] = steps;
+            out.armed[s] = if live { armed[s] } else { out.armed[s] };
+            out.fresh[s] = out.fresh[s] && !live;
+            out.time[s] = select(moves, t + dt[s].min(f.horizon - t).max(T::ZERO), t);
+            open += moves as usize;
+        }
+        open
     }
 }

@@ -92,6 +92,11 @@ pub struct DropAcc {
     /// Samples by the sets of planes hit at their first
     /// [`DropAcc::sequence_impacts`] impacts ([`DropAcc::sequence_cell`]).
     pub sequences: Vec<u64>,
+    /// Flights and impacts the lanes left to the f64 reference (flights
+    /// not closed-form in lanes or over the step budget; impacts the
+    /// kernel flagged, on more than three planes or penetrating one).
+    pub reference_flights: u64,
+    pub reference_impacts: u64,
     planes: usize,
 }
 
@@ -109,6 +114,8 @@ impl DropAcc {
             endings: [0; 5],
             final_axis_up: [0; 3],
             sequences: Vec::new(),
+            reference_flights: 0,
+            reference_impacts: 0,
             planes,
         };
         acc.sequences = vec![0; (1usize << planes).pow(acc.sequence_impacts() as u32)];
@@ -191,6 +198,12 @@ impl DropAcc {
         }
         for (k, c) in self.sequences.iter_mut().enumerate() {
             f(&|| format!("{}.sequences.{k}", prefix()), Slot::Count(c));
+        }
+        for (name, c) in [
+            ("reference_flights", &mut self.reference_flights),
+            ("reference_impacts", &mut self.reference_impacts),
+        ] {
+            f(&|| format!("{}.{name}", prefix()), Slot::Count(c));
         }
         for (k, b) in self.bounces.iter_mut().enumerate() {
             let bounce = || format!("{}.bounce{}", prefix(), k + 1);

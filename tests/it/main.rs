@@ -9,6 +9,7 @@ mod support;
 mod accuracy_ladder;
 mod compliant_convergence;
 mod compliant_friction;
+mod drop_lanes;
 mod drop_runs;
 mod effects;
 mod engine_runs;

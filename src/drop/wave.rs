@@ -1,0 +1,603 @@
+//! Drops in lanes: a wavefront of walks. A block of [`BLOCK`] lanes each
+//! holds one walk (a sample under one law). Every lane's time-of-impact
+//! search advances a few steps at a time in lanes ([`advance`]); a lane
+//! whose search is done is harvested at once: its impact joins the others
+//! found in the same round, grouped by the set of planes it touches and by
+//! law, and solved by the contact kernel in full vectors; then the lane
+//! flies on, or takes the next waiting walk if its walk is over (stream
+//! compaction, as in wavefront path tracers: Laine, Karras & Aila,
+//! "Megakernels Considered Harmful", HPG 2013). Lanes never wait for the
+//! slowest lane of the block.
+//!
+//! What goes to the f64 reference, and is counted: flights that are not
+//! closed-form in lanes (an axisymmetric body, a steady or near-separatrix
+//! spin, RK4 asked for), searches that spend their step budget, and
+//! impacts the kernel flags (its own fallback rules), that touch more than
+//! three planes or penetrate one.
+//!
+//! Which lane a walk lands in never changes its result: its flights and
+//! impacts depend only on its own state, and it is recorded in its own log
+//! ([`super::walk`]), replayed in sample order.
+
+// Lane code indexes SoA arrays by lane on purpose: the index form is what
+// the loop vectoriser sees through.
+#![allow(clippy::needless_range_loop)]
+
+use glam::{DMat3, DQuat, DVec3};
+
+use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
+use crate::kernel::{
+    approaching_bit, frame, friction_impulses, geometry, impulses, post, Consts, ContactRecord,
+    Frame, Geometry, LawOut, Sweep, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, RECOMPUTE,
+    UNCONVERGED, UNSOLVED,
+};
+use crate::lanes::dispatch::{multiversioned, BLOCK};
+use crate::lanes::Real;
+use crate::physics::{
+    kinetic_energy, solve_impact, ContactGeometry, Flags, Law, Motion, Plane, Pose, Rotation, State,
+};
+use crate::sampler::Inputs;
+use crate::stats::drops::Ending;
+
+use super::strike::Strike;
+use super::walk::{How, Log, Walk};
+use super::{start_of, DropCtx, Flight};
+
+/// Search steps between harvests of the done lanes.
+const STEPS: u32 = 4;
+/// Steps a lane's search may take before the reference flies it.
+const BUDGET: u32 = 2_000;
+
+/// The contact kernel of one set of planes, with its scratch space.
+struct SetKernel<T, const K: usize> {
+    /// The set's planes, in scene order.
+    planes: [usize; K],
+    consts: Consts<T, K>,
+    frictional: bool,
+    inputs: Box<Inputs<T>>,
+    geo: Box<Geometry<T, K>>,
+    out: Box<LawOut<T, K>>,
+    frame: Box<Frame<T, K>>,
+    sweep: Box<Sweep<T, K>>,
+}
+
+/// A kernel for one to three planes.
+enum Kernel<T> {
+    One(Box<SetKernel<T, 1>>),
+    Two(Box<SetKernel<T, 2>>),
+    Three(Box<SetKernel<T, 3>>),
+}
+
+/// A walk in a lane.
+struct Lane {
+    /// Its log (index into the chunk's logs) and law (index into the
+    /// scene's laws).
+    item: usize,
+    law: usize,
+    walk: Walk,
+}
+
+/// A lane's impact waiting for the kernel.
+struct Pending {
+    lane: usize,
+    /// The law the impact is solved by (`newton` for `stronge` on several
+    /// planes, with `coupled_fallback`).
+    law: Law,
+    coupled_fallback: bool,
+    /// The planes that touch (bit i: plane i).
+    mask: usize,
+    /// Time from the flight's start, and the motion at the impact (f64).
+    time: f64,
+    motion: Motion,
+}
+
+/// A lane's impact, solved.
+struct Solved {
+    lane: usize,
+    /// `None`: the reference could not solve it.
+    strike: Option<Strike>,
+    by_reference: bool,
+}
+
+impl Solved {
+    fn in_lanes(p: &Pending, strike: Strike) -> Self {
+        Self {
+            lane: p.lane,
+            strike: Some(strike),
+            by_reference: false,
+        }
+    }
+
+    fn by_reference(p: &Pending, strike: Option<Strike>) -> Self {
+        Self {
+            lane: p.lane,
+            strike,
+            by_reference: true,
+        }
+    }
+}
+
+/// A worker's wavefront: the lanes, their flights and searches, and the
+/// kernels of the plane sets met so far.
+pub(crate) struct Wave<T, const N: usize> {
+    flights: Box<FlightLanes<T, N>>,
+    times: Box<Times<T>>,
+    poses: Box<Poses<T>>,
+    kernels: Vec<Option<Kernel<T>>>,
+    lanes: Vec<Option<Lane>>,
+    pending: Vec<Pending>,
+    /// Planes within this distance at an impact take part (the scene's
+    /// contact tolerance, or the lanes' search tolerance if larger).
+    contact_tolerance: f64,
+    /// Flights in lanes (false: every flight by the reference).
+    closed_form: bool,
+}
+
+impl<T: Real, const N: usize> Wave<T, N> {
+    pub(crate) fn new(ctx: &DropCtx) -> Self {
+        let scene = ctx.scene;
+        let fx = scene.effects();
+        let planes: Vec<Plane> = scene.planes().iter().map(|p| p.plane).collect();
+        let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
+        let flights =
+            FlightLanes::new(scene.body(), &planes, gravity, fx.toi_tolerance, fx.horizon);
+        Self {
+            contact_tolerance: ctx.flight.contact_tolerance.max(flights.tolerance()),
+            flights,
+            times: Times::new(),
+            poses: Poses::new(),
+            kernels: (0..1 << N).map(|_| None).collect(),
+            lanes: (0..BLOCK).map(|_| None).collect(),
+            pending: Vec::with_capacity(BLOCK),
+            closed_form: Flight::rotation_of(scene) == Rotation::Elliptic,
+        }
+    }
+}
+
+impl DropCtx<'_> {
+    /// The walks of samples `first..` (one per log, sample-major, then by
+    /// law) into `logs`, in lanes of `T`.
+    pub(crate) fn walks_in_lanes<T: Real, const N: usize>(
+        &self,
+        first: u64,
+        logs: &mut [Log],
+        w: &mut Wave<T, N>,
+    ) {
+        let laws = self.scene.laws().len();
+        let mut next = 0usize;
+        let mut take = |logs: &mut [Log]| -> Option<Lane> {
+            (next < logs.len()).then(|| {
+                let item = next;
+                next += 1;
+                logs[item].clear();
+                let i = first + (item / laws) as u64;
+                let start = start_of(&self.start, &self.sampler, &self.boxes, i);
+                Lane {
+                    item,
+                    law: item % laws,
+                    walk: Walk::new(start),
+                }
+            })
+        };
+        for s in 0..BLOCK {
+            let lane = take(logs);
+            self.launch(s, lane, logs, w, &mut take);
+        }
+        loop {
+            let open = advance(&w.flights, STEPS, BUDGET, &mut w.poses, &mut w.times);
+            w.pending.clear();
+            let mut harvested = 0;
+            for s in 0..BLOCK {
+                let Some(lane) = w.lanes[s].as_mut() else {
+                    continue;
+                };
+                if !w.times.done[s] {
+                    continue;
+                }
+                harvested += 1;
+                if w.times.hit[s] {
+                    let p = self.pending_of(s, lane, w.contact_tolerance, &w.times, &w.poses);
+                    w.pending.push(p);
+                } else if w.times.stuck[s] {
+                    // The reference flies it from the flight's start.
+                    logs[lane.item].reference_flights += 1;
+                    let law = self.scene.laws()[lane.law];
+                    if let Some(e) =
+                        self.reference_flight(law, &mut lane.walk, &mut logs[lane.item])
+                    {
+                        lane.walk.finish(e, &mut logs[lane.item]);
+                        w.lanes[s] = None;
+                    }
+                } else {
+                    lane.walk.finish(Ending::FlewAway, &mut logs[lane.item]);
+                    w.lanes[s] = None;
+                }
+            }
+            if harvested == 0 && open > 0 {
+                continue;
+            }
+            self.solve_pending(logs, w);
+            for s in 0..BLOCK {
+                if !w.times.done[s] {
+                    continue;
+                }
+                let lane = match w.lanes[s].take() {
+                    Some(lane) => Some(lane),
+                    None => take(logs),
+                };
+                self.launch(s, lane, logs, w, &mut take);
+            }
+            if w.lanes.iter().all(Option::is_none) {
+                break;
+            }
+        }
+    }
+
+    /// Lane `s` takes `lane` (or idles if none): its walk's next flight
+    /// begins in lanes, after any flights the reference flies and walks
+    /// that end (each replaced by the next waiting walk from `take`).
+    fn launch<T: Real, const N: usize>(
+        &self,
+        s: usize,
+        mut lane: Option<Lane>,
+        logs: &mut [Log],
+        w: &mut Wave<T, N>,
+        take: &mut impl FnMut(&mut [Log]) -> Option<Lane>,
+    ) {
+        let bounces = self.scene.effects().bounces as usize;
+        while let Some(mut l) = lane.take() {
+            let log = &mut logs[l.item];
+            let ending = match l.walk.fly(bounces) {
+                Some(e) => Some(e),
+                None if w.closed_form && w.flights.set(s, self.scene.body(), &l.walk.motion) => {
+                    w.times.begin(&w.flights, s);
+                    w.lanes[s] = Some(l);
+                    return;
+                }
+                None => {
+                    log.reference_flights += 1;
+                    let law = self.scene.laws()[l.law];
+                    self.reference_flight(law, &mut l.walk, log)
+                }
+            };
+            match ending {
+                Some(e) => {
+                    l.walk.finish(e, log);
+                    lane = take(logs);
+                }
+                None => lane = Some(l),
+            }
+        }
+        w.lanes[s] = None;
+        w.times.idle(s);
+    }
+
+    /// Lane `s`'s impact: the motion at it in f64 (the centre's parabola
+    /// from the flight's start, the attitude and spin from the lanes), the
+    /// planes that touch and the law that solves it.
+    fn pending_of<T: Real>(
+        &self,
+        s: usize,
+        lane: &Lane,
+        contact_tolerance: f64,
+        times: &Times<T>,
+        poses: &Poses<T>,
+    ) -> Pending {
+        let t = times.time[s].to_f64();
+        let m0 = &lane.walk.motion;
+        let (rotation, omega) = poses.lane(s);
+        // The lanes' attitude, made orthonormal to the reference's rounding.
+        let q = DQuat::from_mat3(&rotation).normalize();
+        let gravity = self.flight.gravity;
+        let motion = Motion {
+            centre: m0.centre + m0.velocity * t + gravity * (0.5 * t * t),
+            rotation: DMat3::from_quat(q),
+            velocity: m0.velocity + gravity * t,
+            omega,
+        };
+        let body = self.scene.body();
+        let mut mask = 0;
+        let mut penetrating = false;
+        for (i, p) in self.flight.planes.iter().enumerate() {
+            let d = ContactGeometry::new(body, motion.rotation, motion.centre, p).distance;
+            mask |= ((d.abs() <= contact_tolerance) as usize) << i;
+            penetrating |= d < -contact_tolerance;
+        }
+        let law = self.scene.laws()[lane.law];
+        let several = mask.count_ones() > 1;
+        let (law, coupled_fallback) = match law {
+            Law::Stronge if several => (Law::Newton, true),
+            law => (law, false),
+        };
+        Pending {
+            lane: s,
+            law,
+            coupled_fallback,
+            // Four or more planes, or one penetrated: the reference decides.
+            mask: if mask.count_ones() > 3 || penetrating {
+                usize::MAX
+            } else {
+                mask
+            },
+            time: t,
+            motion,
+        }
+    }
+
+    /// Solves the waiting impacts, grouped by plane set and law, each
+    /// group in full vectors of the kernel, and moves each walk on.
+    fn solve_pending<T: Real, const N: usize>(&self, logs: &mut [Log], w: &mut Wave<T, N>) {
+        let laws = self.scene.laws();
+        let law_key = |l: Law| laws.iter().position(|&x| x == l).unwrap_or(laws.len());
+        let mut pending = std::mem::take(&mut w.pending);
+        pending.sort_by_key(|p| (p.mask, law_key(p.law), p.lane));
+        let mut strikes: Vec<Solved> = Vec::with_capacity(pending.len());
+        for group in pending.chunk_by(|a, b| a.mask == b.mask && a.law == b.law) {
+            let mask = group[0].mask;
+            if mask == usize::MAX {
+                for p in group {
+                    strikes.push(Solved::by_reference(p, self.reference_strike(p)));
+                }
+                continue;
+            }
+            if mask == 0 {
+                // Nothing within the tolerance (rounding): no impulse.
+                for p in group {
+                    strikes.push(Solved::in_lanes(p, self.untouched(&p.motion)));
+                }
+                continue;
+            }
+            let kernel = w.kernels[mask].get_or_insert_with(|| self.kernel_of(mask));
+            match kernel {
+                Kernel::One(k) => self.solve_group(k, group, &mut strikes),
+                Kernel::Two(k) => self.solve_group(k, group, &mut strikes),
+                Kernel::Three(k) => self.solve_group(k, group, &mut strikes),
+            }
+        }
+        let fx = self.scene.effects();
+        for (p, solved) in pending.iter().zip(&strikes) {
+            debug_assert_eq!(p.lane, solved.lane);
+            let lane = w.lanes[p.lane].as_mut().expect("live lane");
+            let log = &mut logs[lane.item];
+            log.reference_impacts += solved.by_reference as u32;
+            let how = How {
+                coupled_fallback: p.coupled_fallback,
+                recomputed: solved.by_reference,
+            };
+            let ending = match &solved.strike {
+                Some(strike) => {
+                    lane.walk
+                        .struck(p.time, p.motion, strike, how, fx.energy_floor, log)
+                }
+                None => Some(lane.walk.unsolved(log)),
+            };
+            if let Some(e) = ending {
+                lane.walk.finish(e, log);
+                w.lanes[p.lane] = None;
+            }
+        }
+        pending.clear();
+        w.pending = pending;
+    }
+
+    /// The kernel of the planes in `mask` (one to three).
+    fn kernel_of<T: Real>(&self, mask: usize) -> Kernel<T> {
+        let planes: Vec<usize> = (0..self.scene.planes().len())
+            .filter(|&i| mask >> i & 1 == 1)
+            .collect();
+        let view = self.scene.contact_view(&planes);
+        match planes.len() {
+            1 => Kernel::One(SetKernel::new(&view, &planes)),
+            2 => Kernel::Two(SetKernel::new(&view, &planes)),
+            _ => Kernel::Three(SetKernel::new(&view, &planes)),
+        }
+    }
+
+    /// One group's impacts (one plane set, one law, at most a block) in
+    /// the kernel; flagged lanes by the reference.
+    fn solve_group<T: Real, const K: usize>(
+        &self,
+        k: &mut SetKernel<T, K>,
+        group: &[Pending],
+        strikes: &mut Vec<Solved>,
+    ) {
+        for chunk in group.chunks(BLOCK) {
+            for s in 0..BLOCK {
+                // Lanes past the group repeat its first impact.
+                let m = &chunk[if s < chunk.len() { s } else { 0 }].motion;
+                let a = m.rotation.transpose().to_cols_array();
+                for r in 0..9 {
+                    k.inputs.a[r][s] = T::from_f64(a[r]);
+                }
+                for d in 0..3 {
+                    k.inputs.v[d][s] = T::from_f64(m.velocity[d]);
+                    k.inputs.w[d][s] = T::from_f64(m.omega[d]);
+                }
+            }
+            let law = chunk[0].law;
+            if k.frictional {
+                friction_set::<T, K>(&k.consts, &k.inputs, &mut k.frame, &mut k.geo);
+                friction_set_law::<T, K>(
+                    &k.consts,
+                    law,
+                    &k.inputs,
+                    &k.geo,
+                    &k.frame,
+                    &mut k.sweep,
+                    &mut k.out,
+                );
+            } else {
+                frictionless_set::<T, K>(&k.consts, law, &k.inputs, &mut k.geo, &mut k.out);
+            }
+            for (s, p) in chunk.iter().enumerate() {
+                let st = k.out.status[s];
+                strikes.push(if st & RECOMPUTE != 0 {
+                    Solved::by_reference(p, self.reference_strike(p))
+                } else {
+                    Solved::in_lanes(p, self.strike_of(k, s, st, &p.motion))
+                });
+            }
+        }
+    }
+
+    /// The kernel's answer in lane `s` as a strike: impulses, friction,
+    /// flags and the state after from the lanes; per plane its distance
+    /// and normal velocities, and the contact points' sliding, in f64 from
+    /// the motion and the state after.
+    fn strike_of<T: Real, const K: usize>(
+        &self,
+        k: &SetKernel<T, K>,
+        s: usize,
+        st: u32,
+        m: &Motion,
+    ) -> Strike {
+        let after = State {
+            velocity: DVec3::from_array(std::array::from_fn(|d| k.out.v_after[d][s].to_f64())),
+            omega: DVec3::from_array(std::array::from_fn(|d| k.out.w_after[d][s].to_f64())),
+        };
+        let mut strike = self.untouched(m);
+        let body = self.scene.body();
+        for (i, p) in self.flight.planes.iter().enumerate() {
+            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
+            let c = &mut strike.contacts[i];
+            c.normal_velocity_after = g.normal_velocity(p, after.velocity, after.omega);
+            let n = p.normal();
+            let point = after.velocity + m.rotation * after.omega.cross(g.body_point);
+            c.sliding_after = (point - n * n.dot(point)).length();
+        }
+        for (j, &i) in k.planes.iter().enumerate() {
+            let c = &mut strike.contacts[i];
+            c.approaching = st & approaching_bit(j) != 0;
+            c.impulse = k.out.lambda[j][s].to_f64();
+            c.tangential = if k.frictional {
+                k.out.tangential[j][s].to_f64()
+            } else {
+                0.0
+            };
+        }
+        strike.after = after;
+        strike.energy_after = kinetic_energy(body, after.velocity, after.omega);
+        strike.flags = Flags {
+            energy_gain: st & ENERGY_GAIN != 0,
+            degenerate: st & DEGENERATE != 0,
+            jammed: st & JAMMED != 0,
+            unsolved: st & UNSOLVED != 0,
+            ambiguous: st & AMBIGUOUS != 0,
+            unconverged: st & UNCONVERGED != 0,
+        };
+        strike
+    }
+
+    /// The strike of an impact no plane takes part in: per plane its
+    /// distance and normal velocity, no impulse, the state unchanged.
+    fn untouched(&self, m: &Motion) -> Strike {
+        let body = self.scene.body();
+        let planes = self.flight.planes.len();
+        let mut contacts = [ContactRecord::default(); crate::config::MAX_DROP_PLANES];
+        let mut distance = [0.0; crate::config::MAX_DROP_PLANES];
+        let mut before = [0.0; crate::config::MAX_DROP_PLANES];
+        for (i, p) in self.flight.planes.iter().enumerate() {
+            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
+            distance[i] = g.distance;
+            before[i] = g.normal_velocity(p, m.velocity, m.omega);
+            contacts[i].normal_velocity_after = before[i];
+            let n = p.normal();
+            let point = m.velocity + m.rotation * m.omega.cross(g.body_point);
+            contacts[i].sliding_after = (point - n * n.dot(point)).length();
+        }
+        let energy = kinetic_energy(body, m.velocity, m.omega);
+        Strike {
+            planes,
+            contacts,
+            distance,
+            normal_velocity_before: before,
+            after: State {
+                velocity: m.velocity,
+                omega: m.omega,
+            },
+            energy_before: energy,
+            energy_after: energy,
+            flags: Flags::default(),
+        }
+    }
+
+    /// The impact by the f64 reference at the lanes' motion (`None`: it
+    /// cannot be solved).
+    fn reference_strike(&self, p: &Pending) -> Option<Strike> {
+        let body = self.scene.body();
+        let pose = Pose {
+            rotation: p.motion.rotation,
+            centre: p.motion.centre,
+        };
+        let state = State {
+            velocity: p.motion.velocity,
+            omega: p.motion.omega,
+        };
+        let planes = &self.flight.planes;
+        let tol = self.flight.contact_tolerance;
+        let o = solve_impact(body, pose, state, planes, p.law, tol).ok()?;
+        let distances: Vec<f64> = o.contacts.iter().map(|c| c.geometry.distance).collect();
+        Some(Strike::of(&o, &distances))
+    }
+}
+
+impl<T: Real, const K: usize> SetKernel<T, K> {
+    fn new(view: &crate::config::Scene, planes: &[usize]) -> Box<Self> {
+        Box::new(Self {
+            planes: std::array::from_fn(|j| planes[j]),
+            consts: Consts::new(view),
+            frictional: view.effects().friction,
+            inputs: Inputs::new(),
+            geo: Geometry::new(),
+            out: LawOut::new(),
+            frame: Frame::new(),
+            sweep: Sweep::new(),
+        })
+    }
+}
+
+multiversioned! {
+    /// A block of impacts on one plane set without friction: geometry, one
+    /// law's impulses and the state after.
+    fn frictionless_set<T: Real, const K: usize>(
+        consts: &Consts<T, K>,
+        law: Law,
+        inputs: &Inputs<T>,
+        geo: &mut Geometry<T, K>,
+        out: &mut LawOut<T, K>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        geometry::<T, K, true>(consts, inputs, geo, !matches!(law, Law::Newton));
+        impulses::<T, K, true, true>(consts, law, geo, out);
+        post::<T, K, true>(consts, inputs, geo, out);
+    }
+}
+
+multiversioned! {
+    /// The contact frames of a block of impacts with friction.
+    fn friction_set<T: Real, const K: usize>(
+        consts: &Consts<T, K>,
+        inputs: &Inputs<T>,
+        fr: &mut Frame<T, K>,
+        geo: &mut Geometry<T, K>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        frame::<T, K>(consts, inputs, fr, geo);
+    }
+}
+
+multiversioned! {
+    /// One law on a block of impacts with friction.
+    fn friction_set_law<T: Real, const K: usize>(
+        consts: &Consts<T, K>,
+        law: Law,
+        inputs: &Inputs<T>,
+        geo: &Geometry<T, K>,
+        fr: &Frame<T, K>,
+        sweep: &mut Sweep<T, K>,
+        out: &mut LawOut<T, K>,
+    ) {
+        crate::lanes::dispatch::align_frame();
+        friction_impulses::<T, K>(consts, law, inputs, geo, fr, sweep, out);
+    }
+}
