@@ -91,28 +91,33 @@ struct Pending {
     motion: Motion,
 }
 
-/// A lane's impact, solved.
-struct Solved {
-    lane: usize,
-    /// `None`: the reference could not solve it.
-    strike: Option<Strike>,
-    by_reference: bool,
+/// Where solved impacts go: each lane's walk moves on (or ends).
+struct Moves<'a> {
+    lanes: &'a mut [Option<Lane>],
+    logs: &'a mut [Log],
+    floor: f64,
 }
 
-impl Solved {
-    fn in_lanes(p: &Pending, strike: Strike) -> Self {
-        Self {
-            lane: p.lane,
-            strike: Some(strike),
-            by_reference: false,
-        }
-    }
-
-    fn by_reference(p: &Pending, strike: Option<Strike>) -> Self {
-        Self {
-            lane: p.lane,
-            strike,
-            by_reference: true,
+impl Moves<'_> {
+    /// Lane `p.lane`'s impact is `strike` (`None`: the reference could not
+    /// solve it), by the reference or not.
+    fn apply(&mut self, p: &Pending, strike: Option<&Strike>, by_reference: bool) {
+        let lane = self.lanes[p.lane].as_mut().expect("live lane");
+        let log = &mut self.logs[lane.item];
+        log.reference_impacts += by_reference as u32;
+        let how = How {
+            coupled_fallback: p.coupled_fallback,
+            recomputed: by_reference,
+        };
+        let ending = match strike {
+            Some(strike) => lane
+                .walk
+                .struck(p.time, p.motion, strike, how, self.floor, log),
+            None => Some(lane.walk.unsolved(log)),
+        };
+        if let Some(e) = ending {
+            lane.walk.finish(e, log);
+            self.lanes[p.lane] = None;
         }
     }
 }
@@ -298,8 +303,10 @@ impl DropCtx<'_> {
         let body = self.scene.body();
         let mut mask = 0;
         let mut penetrating = false;
+        let semi = body.semi_axes();
         for (i, p) in self.flight.planes.iter().enumerate() {
-            let d = ContactGeometry::new(body, motion.rotation, motion.centre, p).distance;
+            let u = motion.rotation.transpose() * p.normal();
+            let d = p.signed_distance(motion.centre) - (semi * u).length();
             mask |= ((d.abs() <= contact_tolerance) as usize) << i;
             penetrating |= d < -contact_tolerance;
         }
@@ -329,55 +336,41 @@ impl DropCtx<'_> {
     fn solve_pending<T: Real, const N: usize>(&self, logs: &mut [Log], w: &mut Wave<T, N>) {
         let laws = self.scene.laws();
         let law_key = |l: Law| laws.iter().position(|&x| x == l).unwrap_or(laws.len());
-        let mut pending = std::mem::take(&mut w.pending);
-        pending.sort_by_key(|p| (p.mask, law_key(p.law), p.lane));
-        let mut strikes: Vec<Solved> = Vec::with_capacity(pending.len());
+        let Wave {
+            pending,
+            kernels,
+            lanes,
+            ..
+        } = w;
+        pending.sort_unstable_by_key(|p| (p.mask, law_key(p.law), p.lane));
+        let mut out = Moves {
+            lanes,
+            logs,
+            floor: self.scene.effects().energy_floor,
+        };
         for group in pending.chunk_by(|a, b| a.mask == b.mask && a.law == b.law) {
             let mask = group[0].mask;
             if mask == usize::MAX {
                 for p in group {
-                    strikes.push(Solved::by_reference(p, self.reference_strike(p)));
+                    out.apply(p, self.reference_strike(p).as_ref(), true);
                 }
                 continue;
             }
             if mask == 0 {
                 // Nothing within the tolerance (rounding): no impulse.
                 for p in group {
-                    strikes.push(Solved::in_lanes(p, self.untouched(&p.motion)));
+                    out.apply(p, Some(&self.untouched(&p.motion)), false);
                 }
                 continue;
             }
-            let kernel = w.kernels[mask].get_or_insert_with(|| self.kernel_of(mask));
+            let kernel = kernels[mask].get_or_insert_with(|| self.kernel_of(mask));
             match kernel {
-                Kernel::One(k) => self.solve_group(k, group, &mut strikes),
-                Kernel::Two(k) => self.solve_group(k, group, &mut strikes),
-                Kernel::Three(k) => self.solve_group(k, group, &mut strikes),
-            }
-        }
-        let fx = self.scene.effects();
-        for (p, solved) in pending.iter().zip(&strikes) {
-            debug_assert_eq!(p.lane, solved.lane);
-            let lane = w.lanes[p.lane].as_mut().expect("live lane");
-            let log = &mut logs[lane.item];
-            log.reference_impacts += solved.by_reference as u32;
-            let how = How {
-                coupled_fallback: p.coupled_fallback,
-                recomputed: solved.by_reference,
-            };
-            let ending = match &solved.strike {
-                Some(strike) => {
-                    lane.walk
-                        .struck(p.time, p.motion, strike, how, fx.energy_floor, log)
-                }
-                None => Some(lane.walk.unsolved(log)),
-            };
-            if let Some(e) = ending {
-                lane.walk.finish(e, log);
-                w.lanes[p.lane] = None;
+                Kernel::One(k) => self.solve_group(k, group, &mut out),
+                Kernel::Two(k) => self.solve_group(k, group, &mut out),
+                Kernel::Three(k) => self.solve_group(k, group, &mut out),
             }
         }
         pending.clear();
-        w.pending = pending;
     }
 
     /// The kernel of the planes in `mask` (one to three).
@@ -399,7 +392,7 @@ impl DropCtx<'_> {
         &self,
         k: &mut SetKernel<T, K>,
         group: &[Pending],
-        strikes: &mut Vec<Solved>,
+        out: &mut Moves,
     ) {
         for chunk in group.chunks(BLOCK) {
             for s in 0..BLOCK {
@@ -431,11 +424,11 @@ impl DropCtx<'_> {
             }
             for (s, p) in chunk.iter().enumerate() {
                 let st = k.out.status[s];
-                strikes.push(if st & RECOMPUTE != 0 {
-                    Solved::by_reference(p, self.reference_strike(p))
+                if st & RECOMPUTE != 0 {
+                    out.apply(p, self.reference_strike(p).as_ref(), true);
                 } else {
-                    Solved::in_lanes(p, self.strike_of(k, s, st, &p.motion))
-                });
+                    out.apply(p, Some(&self.strike_of(k, s, st, &p.motion)), false);
+                }
             }
         }
     }
@@ -455,16 +448,7 @@ impl DropCtx<'_> {
             velocity: DVec3::from_array(std::array::from_fn(|d| k.out.v_after[d][s].to_f64())),
             omega: DVec3::from_array(std::array::from_fn(|d| k.out.w_after[d][s].to_f64())),
         };
-        let mut strike = self.untouched(m);
-        let body = self.scene.body();
-        for (i, p) in self.flight.planes.iter().enumerate() {
-            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
-            let c = &mut strike.contacts[i];
-            c.normal_velocity_after = g.normal_velocity(p, after.velocity, after.omega);
-            let n = p.normal();
-            let point = after.velocity + m.rotation * after.omega.cross(g.body_point);
-            c.sliding_after = (point - n * n.dot(point)).length();
-        }
+        let mut strike = self.strike_at(m, &after);
         for (j, &i) in k.planes.iter().enumerate() {
             let c = &mut strike.contacts[i];
             c.approaching = st & approaching_bit(j) != 0;
@@ -475,8 +459,6 @@ impl DropCtx<'_> {
                 0.0
             };
         }
-        strike.after = after;
-        strike.energy_after = kinetic_energy(body, after.velocity, after.omega);
         strike.flags = Flags {
             energy_gain: st & ENERGY_GAIN != 0,
             degenerate: st & DEGENERATE != 0,
@@ -488,11 +470,22 @@ impl DropCtx<'_> {
         strike
     }
 
-    /// The strike of an impact no plane takes part in: per plane its
-    /// distance and normal velocity, no impulse, the state unchanged.
+    /// The strike of an impact no plane takes part in: the state
+    /// unchanged.
     fn untouched(&self, m: &Motion) -> Strike {
+        let state = State {
+            velocity: m.velocity,
+            omega: m.omega,
+        };
+        self.strike_at(m, &state)
+    }
+
+    /// A strike at `m` with the state `after` and no impulses yet: per
+    /// plane its distance, the normal velocities before and after, and the
+    /// contact point's sliding after, in f64 (one contact geometry per
+    /// plane).
+    fn strike_at(&self, m: &Motion, after: &State) -> Strike {
         let body = self.scene.body();
-        let planes = self.flight.planes.len();
         let mut contacts = [ContactRecord::default(); crate::config::MAX_DROP_PLANES];
         let mut distance = [0.0; crate::config::MAX_DROP_PLANES];
         let mut before = [0.0; crate::config::MAX_DROP_PLANES];
@@ -500,23 +493,19 @@ impl DropCtx<'_> {
             let g = ContactGeometry::new(body, m.rotation, m.centre, p);
             distance[i] = g.distance;
             before[i] = g.normal_velocity(p, m.velocity, m.omega);
-            contacts[i].normal_velocity_after = before[i];
+            contacts[i].normal_velocity_after = g.normal_velocity(p, after.velocity, after.omega);
             let n = p.normal();
-            let point = m.velocity + m.rotation * m.omega.cross(g.body_point);
+            let point = after.velocity + m.rotation * after.omega.cross(g.body_point);
             contacts[i].sliding_after = (point - n * n.dot(point)).length();
         }
-        let energy = kinetic_energy(body, m.velocity, m.omega);
         Strike {
-            planes,
+            planes: self.flight.planes.len(),
             contacts,
             distance,
             normal_velocity_before: before,
-            after: State {
-                velocity: m.velocity,
-                omega: m.omega,
-            },
-            energy_before: energy,
-            energy_after: energy,
+            after: *after,
+            energy_before: kinetic_energy(body, m.velocity, m.omega),
+            energy_after: kinetic_energy(body, after.velocity, after.omega),
             flags: Flags::default(),
         }
     }
