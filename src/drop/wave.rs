@@ -25,6 +25,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
+use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn};
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::kernel::{
     approaching_bit, frame, friction_impulses, geometry, impulses, post, Consts, ContactRecord,
@@ -130,6 +131,10 @@ pub(crate) struct Wave<T, const N: usize> {
     poses: Box<Poses<T>>,
     kernels: Vec<Option<Kernel<T>>>,
     lanes: Vec<Option<Lane>>,
+    /// The flights' torque-free constants, computed in f64 lanes.
+    setup_consts: SetupConsts,
+    setup_in: Box<SetupIn>,
+    setup: Box<Setup>,
     pending: Vec<Pending>,
     /// Planes within this distance at an impact take part (the scene's
     /// contact tolerance, or the lanes' search tolerance if larger).
@@ -153,6 +158,9 @@ impl<T: Real, const N: usize> Wave<T, N> {
             poses: Poses::new(),
             kernels: (0..1 << N).map(|_| None).collect(),
             lanes: (0..BLOCK).map(|_| None).collect(),
+            setup_consts: SetupConsts::new(scene.body().inertia()),
+            setup_in: SetupIn::new(),
+            setup: Setup::new(),
             pending: Vec::with_capacity(BLOCK),
             closed_form: Flight::rotation_of(scene) == Rotation::Elliptic,
         }
@@ -184,10 +192,11 @@ impl DropCtx<'_> {
                 }
             })
         };
+        let mut queue: Vec<(usize, Option<Lane>)> = Vec::with_capacity(BLOCK);
         for s in 0..BLOCK {
-            let lane = take(logs);
-            self.launch(s, lane, logs, w, &mut take);
+            queue.push((s, take(logs)));
         }
+        self.launch(&mut queue, logs, w, &mut take);
         loop {
             let open = advance(&w.flights, STEPS, BUDGET, &mut w.poses, &mut w.times);
             w.pending.clear();
@@ -230,51 +239,93 @@ impl DropCtx<'_> {
                     Some(lane) => Some(lane),
                     None => take(logs),
                 };
-                self.launch(s, lane, logs, w, &mut take);
+                queue.push((s, lane));
             }
+            self.launch(&mut queue, logs, w, &mut take);
             if w.lanes.iter().all(Option::is_none) {
                 break;
             }
         }
     }
 
-    /// Lane `s` takes `lane` (or idles if none): its walk's next flight
-    /// begins in lanes, after any flights the reference flies and walks
-    /// that end (each replaced by the next waiting walk from `take`).
+    /// Each lane `s` of `queue` takes its walk (or idles if none): the
+    /// walk's next flight begins in lanes, after any flights the reference
+    /// flies and walks that end (each replaced by the next waiting walk
+    /// from `take`). The flights' torque-free constants are computed
+    /// together, in lanes.
     fn launch<T: Real, const N: usize>(
         &self,
-        s: usize,
-        mut lane: Option<Lane>,
+        queue: &mut Vec<(usize, Option<Lane>)>,
         logs: &mut [Log],
         w: &mut Wave<T, N>,
         take: &mut impl FnMut(&mut [Log]) -> Option<Lane>,
     ) {
         let bounces = self.scene.effects().bounces as usize;
-        while let Some(mut l) = lane.take() {
-            let log = &mut logs[l.item];
-            let ending = match l.walk.fly(bounces) {
-                Some(e) => Some(e),
-                None if w.closed_form && w.flights.set(s, self.scene.body(), &l.walk.motion) => {
+        let mut ready: Vec<(usize, Lane)> = Vec::with_capacity(BLOCK);
+        while !queue.is_empty() {
+            // Each walk on to its next flight, or ended and replaced.
+            for (s, mut lane) in queue.drain(..) {
+                while let Some(mut l) = lane.take() {
+                    match l.walk.fly(bounces) {
+                        None if w.closed_form => ready.push((s, l)),
+                        None => {
+                            let log = &mut logs[l.item];
+                            log.reference_flights += 1;
+                            let law = self.scene.laws()[l.law];
+                            match self.reference_flight(law, &mut l.walk, log) {
+                                Some(e) => {
+                                    l.walk.finish(e, log);
+                                    lane = take(logs);
+                                }
+                                None => lane = Some(l),
+                            }
+                        }
+                        Some(e) => {
+                            l.walk.finish(e, &mut logs[l.item]);
+                            lane = take(logs);
+                        }
+                    }
+                }
+                if !ready.last().is_some_and(|(r, _)| *r == s) {
+                    w.lanes[s] = None;
+                    w.times.idle(s);
+                }
+            }
+            if ready.is_empty() {
+                break;
+            }
+            // The flights' constants in lanes, then each flight begins (or,
+            // if not closed-form, the reference flies it).
+            for (j, (_, l)) in ready.iter().enumerate() {
+                let r = l.walk.motion.rotation.transpose().to_cols_array();
+                for k in 0..9 {
+                    w.setup_in.rotation[k][j] = r[k];
+                }
+                for k in 0..3 {
+                    w.setup_in.omega[k][j] = l.walk.motion.omega[k];
+                }
+            }
+            setup(&w.setup_consts, &w.setup_in, ready.len(), &mut w.setup);
+            for (j, (s, mut l)) in ready.drain(..).enumerate() {
+                let body = self.scene.body();
+                if w.flights.set_prepared(s, body, &l.walk.motion, &w.setup, j) {
                     w.times.begin(&w.flights, s);
                     w.lanes[s] = Some(l);
-                    return;
+                    continue;
                 }
-                None => {
-                    log.reference_flights += 1;
-                    let law = self.scene.laws()[l.law];
-                    self.reference_flight(law, &mut l.walk, log)
-                }
-            };
-            match ending {
-                Some(e) => {
-                    l.walk.finish(e, log);
-                    lane = take(logs);
-                }
-                None => lane = Some(l),
+                let log = &mut logs[l.item];
+                log.reference_flights += 1;
+                let law = self.scene.laws()[l.law];
+                let next = match self.reference_flight(law, &mut l.walk, log) {
+                    Some(e) => {
+                        l.walk.finish(e, log);
+                        take(logs)
+                    }
+                    None => Some(l),
+                };
+                queue.push((s, next));
             }
         }
-        w.lanes[s] = None;
-        w.times.idle(s);
     }
 
     /// Lane `s`'s impact: the motion at it in f64 (the centre's parabola

@@ -34,5 +34,6 @@ pub use lcp::{solve_lcp, LcpSolution, ACCEPT_RELATIVE, FEASIBILITY_RELATIVE, MAX
 pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
 pub use plane::{Plane, PlaneError};
 pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};
+pub use torque_free::SEPARATRIX;
 pub(crate) use torque_free::THETA_TERMS;
 pub use torque_free::{carlson_rf, carlson_rj, Jacobi, TorqueFree};

@@ -19,6 +19,8 @@ use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::{select, Real};
 use crate::physics::{TorqueFree, THETA_TERMS};
 
+pub mod setup;
+
 /// Most Landen levels of a [`crate::physics::Jacobi`].
 const LEVELS: usize = 16;
 
@@ -126,6 +128,46 @@ impl<T: Real> PoseLanes<T> {
             let on = n < p.terms;
             self.theta_re[n][s] = t(if on { p.re[n] } else { 0.0 });
             self.theta_im[n][s] = t(if on { p.im[n] } else { 0.0 });
+        }
+        true
+    }
+
+    /// Lane `s` takes the constants of lane `j` of `c` (computed in lanes
+    /// by [`setup::setup`]). False if that motion is not closed-form.
+    pub fn set_from(&mut self, s: usize, c: &setup::Setup, j: usize) -> bool {
+        let closed = c.closed[j];
+        self.closed[s] = closed;
+        if !closed {
+            return false;
+        }
+        let t = T::from_f64;
+        for col in 0..3 {
+            for row in 0..3 {
+                self.perm[col][row][s] = t(c.perm[col][row][j]);
+                self.base[col][row][s] = t(c.base[col][row][j]);
+            }
+            self.inertia[col][s] = t(c.inertia[col][j]);
+            self.amp[col][s] = t(c.amp[col][j]);
+        }
+        self.sign2[s] = t(c.sign2[j]);
+        self.sign3[s] = t(c.sign3[j]);
+        self.lambda[s] = t(c.lambda[j]);
+        self.tau0[s] = t(c.tau0[j]);
+        self.two_k[s] = t(c.two_k[j]);
+        self.rate[s] = t(c.rate[j]);
+        self.amplitude[s] = t(c.amplitude[j]);
+        self.periodic0[s] = t(c.periodic0[j]);
+        self.agm[s] = t(c.agm[j]);
+        self.levels[s] = t(c.levels[j]);
+        for i in 0..LEVELS {
+            self.landen_a[i][s] = t(c.landen_a[i][j]);
+            self.landen_b[i][s] = t(c.landen_b[i][j]);
+        }
+        self.most_levels = self.most_levels.max(c.levels[j] as usize);
+        self.scale[s] = t(c.scale[j]);
+        for n in 0..THETA_TERMS {
+            self.theta_re[n][s] = t(c.theta_re[n][j]);
+            self.theta_im[n][s] = t(c.theta_im[n][j]);
         }
         true
     }
@@ -410,9 +452,36 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
         body: &crate::physics::Ellipsoid,
         m: &crate::physics::Motion,
     ) -> bool {
-        let t = T::from_f64;
         let tf = TorqueFree::new(body.inertia(), m.rotation, m.omega);
         let closed = self.pose.set(s, &tf);
+        self.set_flight(s, body, m);
+        closed
+    }
+
+    /// [`Self::set`] with the attitude's constants from lane `j` of `c`
+    /// (computed in lanes by [`setup::setup`]).
+    pub fn set_prepared(
+        &mut self,
+        s: usize,
+        body: &crate::physics::Ellipsoid,
+        m: &crate::physics::Motion,
+        c: &setup::Setup,
+        j: usize,
+    ) -> bool {
+        let closed = self.pose.set_from(s, c, j);
+        self.set_flight(s, body, m);
+        closed
+    }
+
+    /// Lane `s`'s centre, spin bound and search start for a flight from
+    /// `m`.
+    fn set_flight(
+        &mut self,
+        s: usize,
+        body: &crate::physics::Ellipsoid,
+        m: &crate::physics::Motion,
+    ) {
+        let t = T::from_f64;
         let j = body.inertia();
         let w_bound = crate::physics::spin_bound(j, m.omega);
         let semi = body.semi_axes();
@@ -435,7 +504,6 @@ impl<T: Real, const N: usize> FlightLanes<T, N> {
             self.gravity64,
             self.tolerance64,
         ));
-        closed
     }
 }
 
