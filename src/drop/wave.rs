@@ -286,7 +286,7 @@ impl DropCtx<'_> {
                         }
                     }
                 }
-                if !ready.last().is_some_and(|(r, _)| *r == s) {
+                if ready.last().is_none_or(|(r, _)| *r != s) {
                     w.lanes[s] = None;
                     w.times.idle(s);
                 }

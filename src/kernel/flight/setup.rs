@@ -188,10 +188,10 @@ impl Setup {
 /// e^r by its Taylor series to degree 13, 2^k from the exponent bits.
 #[inline(always)]
 pub fn exp(x: f64) -> f64 {
-    const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     let tiny = x < -708.0;
-    let x = x.max(-708.0).min(709.0);
+    let x = x.clamp(-708.0, 709.0);
     let k = (x * std::f64::consts::LOG2_E).round_ties_even();
     let r = k.mul_add(-LN2_LO, k.mul_add(-LN2_HI, x));
     let mut p = 1.0 / 6_227_020_800.0;
@@ -324,7 +324,7 @@ multiversioned! {
                 (d1 / (i3 * (i3 - i1))).sqrt(),
             ];
             lambda[s] = ((i3 - i2) * d1 / (i1 * i2 * i3)).sqrt();
-            let m = ((i2 - i1) * d3 / ((i3 - i2) * d1)).max(0.0).min(1.0 - f64::EPSILON);
+            let m = ((i2 - i1) * d3 / ((i3 - i2) * d1)).clamp(0.0, 1.0 - f64::EPSILON);
             let closed = !steady && 1.0 - m >= SEPARATRIX && m >= M_MIN;
             // A lane that is not closed-form computes on harmless values.
             let m = select(closed, m, 0.5);
