@@ -154,6 +154,9 @@ pub struct DropCtx<'a> {
     /// Walks by the f64 reference alone (else in lanes of the scene's
     /// precision).
     reference: bool,
+    /// The workers' lanes (a `Box<Lanes<N>>` each), kept from batch to
+    /// batch.
+    lanes: crate::engine::pool::Pool<Box<dyn std::any::Any + Send>>,
 }
 
 /// One law's first impacts of a block, in lanes, for the block statistics:
@@ -197,7 +200,9 @@ impl<const N: usize> Lanes<N> {
 
 /// Samples per chunk of a batch: the walks of a chunk are computed (in any
 /// order), then replayed in sample order, a block at a time.
-const CHUNK: usize = 16 * BLOCK;
+/// A default drop batch (4,096 samples) is one chunk: the wavefront's lanes
+/// run dry once per batch.
+const CHUNK: usize = 32 * BLOCK;
 
 impl<'a> DropCtx<'a> {
     pub fn new(scene: &'a Scene, start: DropBox, keep: crate::config::Keep) -> Self {
@@ -211,6 +216,7 @@ impl<'a> DropCtx<'a> {
             // |ω⁺| changes in flight and at impacts: computed per sample.
             plan: StatsPlan::of(scene, keep).per_sample_spin(),
             reference: false,
+            lanes: crate::engine::pool::Pool::new(),
         }
     }
 
@@ -258,14 +264,17 @@ impl<'a> DropCtx<'a> {
         let (mut derived, mut base) = (Derived::<f64, N>::new(), Derived::<f64, N>::new());
         let mut diff = Box::new([0.0; BLOCK]);
         let mut logs: Vec<Log> = Vec::new();
-        let mut lanes = Lanes::<N>::new(self);
+        let mut kept = self
+            .lanes
+            .take(|| Box::new(Box::new(Lanes::<N>::new(self))));
+        let lanes: &mut Lanes<N> = kept.downcast_mut::<Box<Lanes<N>>>().expect("lanes of N planes");
         let end = first + count;
         let mut lo = first;
         while lo < end {
             let chunk = ((end - lo) as usize).min(CHUNK);
             logs.resize_with(chunk * laws.len(), || Log::new(rows.is_some()));
             let logs = &mut logs[..chunk * laws.len()];
-            match &mut lanes {
+            match lanes {
                 _ if self.reference => self.walks(lo, logs),
                 Lanes::F32(w) => self.walks_in_lanes(lo, logs, w),
                 Lanes::F64(w) => self.walks_in_lanes(lo, logs, w),
@@ -308,6 +317,7 @@ impl<'a> DropCtx<'a> {
             }
             lo += chunk as u64;
         }
+        self.lanes.give(kept);
     }
 
     /// The walks of samples `first..` (one per log, sample-major, then by

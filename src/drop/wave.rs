@@ -25,7 +25,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn};
+use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork};
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::kernel::{
     approaching_bit, frame, friction_impulses, geometry, impulses, post, Consts, ContactRecord,
@@ -134,6 +134,7 @@ pub(crate) struct Wave<T, const N: usize> {
     /// The flights' torque-free constants, computed in f64 lanes.
     setup_consts: SetupConsts,
     setup_in: Box<SetupIn>,
+    setup_work: Box<SetupWork>,
     setup: Box<Setup>,
     pending: Vec<Pending>,
     /// Planes within this distance at an impact take part (the scene's
@@ -160,6 +161,7 @@ impl<T: Real, const N: usize> Wave<T, N> {
             lanes: (0..BLOCK).map(|_| None).collect(),
             setup_consts: SetupConsts::new(scene.body().inertia()),
             setup_in: SetupIn::new(),
+            setup_work: SetupWork::new(),
             setup: Setup::new(),
             pending: Vec::with_capacity(BLOCK),
             closed_form: Flight::rotation_of(scene) == Rotation::Elliptic,
@@ -305,7 +307,8 @@ impl DropCtx<'_> {
                     w.setup_in.omega[k][j] = l.walk.motion.omega[k];
                 }
             }
-            setup(&w.setup_consts, &w.setup_in, ready.len(), &mut w.setup);
+            let n = ready.len();
+            setup(&w.setup_consts, &w.setup_in, n, &mut w.setup_work, &mut w.setup);
             for (j, (s, mut l)) in ready.drain(..).enumerate() {
                 let body = self.scene.body();
                 if w.flights.set_prepared(s, body, &l.walk.motion, &w.setup, j) {

@@ -10,7 +10,7 @@
 
 mod batch;
 mod evaluate;
-mod pool;
+pub(crate) mod pool;
 
 use std::time::Instant;
 

@@ -147,6 +147,87 @@ pub struct Setup {
     pub closed: [bool; BLOCK],
 }
 
+/// The set-up's scratch space, per lane (every lane it reads in
+/// `0..n` is written first).
+#[repr(C, align(64))]
+pub struct SetupWork {
+    mm: [f64; BLOCK],
+    nu: [f64; BLOCK],
+    sin_psi: [f64; BLOCK],
+    cos2_psi: [f64; BLOCK],
+    big_m: [f64; BLOCK],
+    lambda: [f64; BLOCK],
+    i13: [f64; BLOCK],
+    f_x: [f64; BLOCK],
+    f_y: [f64; BLOCK],
+    s_r: [f64; BLOCK],
+    turns: [f64; BLOCK],
+    a: [f64; BLOCK],
+    emc: [f64; BLOCK],
+    cc: [f64; BLOCK],
+    levels: [f64; BLOCK],
+    qc: [f64; BLOCK],
+    e: [f64; BLOCK],
+    em: [f64; BLOCK],
+    p: [f64; BLOCK],
+    ca: [f64; BLOCK],
+    cb: [f64; BLOCK],
+    fz: [f64; BLOCK],
+    gx: [f64; BLOCK],
+    gy: [f64; BLOCK],
+    gz: [f64; BLOCK],
+    ka: [f64; BLOCK],
+    kb: [f64; BLOCK],
+    r: [f64; BLOCK],
+    gamma: [f64; BLOCK],
+    kp: [f64; BLOCK],
+    f_r: [f64; BLOCK],
+    on: [bool; BLOCK],
+    done: [bool; BLOCK],
+    live: [bool; BLOCK],
+}
+
+impl SetupWork {
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            mm: [0.0; BLOCK],
+            nu: [0.0; BLOCK],
+            sin_psi: [0.0; BLOCK],
+            cos2_psi: [0.0; BLOCK],
+            big_m: [0.0; BLOCK],
+            lambda: [0.0; BLOCK],
+            i13: [0.0; BLOCK],
+            f_x: [0.0; BLOCK],
+            f_y: [0.0; BLOCK],
+            s_r: [0.0; BLOCK],
+            turns: [0.0; BLOCK],
+            a: [0.0; BLOCK],
+            emc: [0.0; BLOCK],
+            cc: [0.0; BLOCK],
+            levels: [0.0; BLOCK],
+            qc: [0.0; BLOCK],
+            e: [0.0; BLOCK],
+            em: [0.0; BLOCK],
+            p: [0.0; BLOCK],
+            ca: [0.0; BLOCK],
+            cb: [0.0; BLOCK],
+            fz: [0.0; BLOCK],
+            gx: [0.0; BLOCK],
+            gy: [0.0; BLOCK],
+            gz: [0.0; BLOCK],
+            ka: [0.0; BLOCK],
+            kb: [0.0; BLOCK],
+            r: [0.0; BLOCK],
+            gamma: [0.0; BLOCK],
+            kp: [0.0; BLOCK],
+            f_r: [0.0; BLOCK],
+            on: [false; BLOCK],
+            done: [false; BLOCK],
+            live: [false; BLOCK],
+        })
+    }
+}
+
 impl SetupIn {
     pub fn new() -> Box<Self> {
         Box::new(Self {
@@ -282,15 +363,16 @@ multiversioned! {
     /// invariants and initial phase per lane; the Landen levels, `cel`'s
     /// steps and the duplications one step at a time over every lane; the
     /// theta series and the rest.
-    pub fn setup(c: &SetupConsts, x: &SetupIn, n: usize, out: &mut Setup) {
+    pub fn setup(c: &SetupConsts, x: &SetupIn, n: usize, k: &mut SetupWork, out: &mut Setup) {
         crate::lanes::dispatch::align_frame();
         let n = n.min(BLOCK);
         let [o_s, o_mid, o_l] = c.order;
         let (ja, jb) = (&c.about_largest, &c.about_smallest);
-        let z = [0.0f64; BLOCK];
-        let (mut mm, mut nu, mut sin_psi, mut cos2_psi) = (z, z, z, z);
-        let (mut big_m, mut lambda, mut i13) = (z, z, z);
-        let (mut f_x, mut f_y, mut s_r, mut turns) = (z, z, z, z);
+        let SetupWork {
+            mm, nu, sin_psi, cos2_psi, big_m, lambda, i13, f_x, f_y, s_r, turns, a, emc, cc,
+            levels, qc, e, em, p, ca, cb, fz, gx, gy, gz, ka, kb, r, gamma, kp, f_r, on, done,
+            live,
+        } = k;
         for s in 0..n {
             let w = [x.omega[0][s], x.omega[1][s], x.omega[2][s]];
             let j = c.j;
@@ -384,11 +466,9 @@ multiversioned! {
         }
         // The descending Landen sequence (Jacobi::new), held where the
         // reference stops; its mean gives K = π/2M.
-        let (mut a, mut emc, mut cc) = ([1.0f64; BLOCK], z, [1.0f64; BLOCK]);
-        let mut on = [true; BLOCK];
-        let mut levels = z;
         for s in 0..n {
-            emc[s] = 1.0 - mm[s];
+            (a[s], emc[s], cc[s]) = (1.0, 1.0 - mm[s], 1.0);
+            (on[s], levels[s]) = (true, 0.0);
         }
         for l in 0..LEVELS {
             let level = (l + 1) as f64;
@@ -409,9 +489,8 @@ multiversioned! {
         // Π(−ν | m) by Bulirsch's cel(√(1 − m), 1 + ν, 1, 1), held once
         // converged (relative 1e-8 of the mean: its error is the square).
         const CA: f64 = 1e-8;
-        let (mut qc, mut e, mut em, mut p, mut ca, mut cb) = (z, z, z, z, z, z);
-        let mut done = [false; BLOCK];
         for s in 0..n {
+            done[s] = false;
             qc[s] = (1.0 - mm[s]).sqrt();
             e[s] = qc[s];
             em[s] = 1.0;
@@ -443,9 +522,8 @@ multiversioned! {
         }
         // R_F for the initial phase, R_F(cos²ψ, 1 − (1 − m) sin²ψ, 1) for
         // γ, and the AGM of 1 and √m for K′, a step at a time.
-        let (mut fz, mut gx, mut gy, mut gz) = ([1.0f64; BLOCK], z, z, [1.0f64; BLOCK]);
-        let (mut ka, mut kb) = ([1.0f64; BLOCK], z);
         for s in 0..n {
+            (fz[s], gz[s], ka[s]) = (1.0, 1.0, 1.0);
             gx[s] = cos2_psi[s];
             gy[s] = 1.0 - (1.0 - mm[s]) * sin_psi[s] * sin_psi[s];
             kb[s] = mm[s].sqrt();
@@ -457,7 +535,6 @@ multiversioned! {
                 (ka[s], kb[s]) = agm_step(ka[s], kb[s]);
             }
         }
-        let (mut r, mut gamma, mut kp, mut f_r) = (z, z, z, z);
         for s in 0..n {
             let k_complete = std::f64::consts::FRAC_PI_2 / cc[s];
             let pi_complete =
@@ -479,7 +556,9 @@ multiversioned! {
         }
         // The theta series' coefficients (ThetaPhase::new), held past the
         // reference's last term.
-        let mut live = [true; BLOCK];
+        for s in 0..n {
+            live[s] = true;
+        }
         for t in 0..THETA_TERMS {
             let nf = (t + 1) as f64;
             let sign = if t % 2 == 1 { 1.0 } else { -1.0 };
@@ -618,7 +697,7 @@ mod tests {
                     want.push(TorqueFree::new(body.inertia(), r, w));
                 }
                 let mut got = Setup::new();
-                setup(&c, &x, BLOCK, &mut got);
+                setup(&c, &x, BLOCK, &mut SetupWork::new(), &mut got);
                 for (s, tf) in want.iter().enumerate() {
                     let reference_closed = tf.steady.is_none() && tf.rk4_step.is_none();
                     let m = 1.0 - tf.jacobi.mc;
