@@ -267,7 +267,9 @@ impl<'a> DropCtx<'a> {
         let mut kept = self
             .lanes
             .take(|| Box::new(Box::new(Lanes::<N>::new(self))));
-        let lanes: &mut Lanes<N> = kept.downcast_mut::<Box<Lanes<N>>>().expect("lanes of N planes");
+        let lanes: &mut Lanes<N> = kept
+            .downcast_mut::<Box<Lanes<N>>>()
+            .expect("lanes of N planes");
         let end = first + count;
         let mut lo = first;
         while lo < end {

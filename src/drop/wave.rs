@@ -308,7 +308,13 @@ impl DropCtx<'_> {
                 }
             }
             let n = ready.len();
-            setup(&w.setup_consts, &w.setup_in, n, &mut w.setup_work, &mut w.setup);
+            setup(
+                &w.setup_consts,
+                &w.setup_in,
+                n,
+                &mut w.setup_work,
+                &mut w.setup,
+            );
             for (j, (s, mut l)) in ready.drain(..).enumerate() {
                 let body = self.scene.body();
                 if w.flights.set_prepared(s, body, &l.walk.motion, &w.setup, j) {

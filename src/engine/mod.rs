@@ -73,8 +73,10 @@ pub(crate) use with_kernel;
 pub fn describe(scene: &Scene, keep: Keep) -> String {
     match scene.placement() {
         Placement::Drop(_) => {
-            "kernel: drop (flight, time of impact and impacts by the f64 reference, per sample)"
-                .into()
+            format!(
+                "kernel: drop in {} lanes (a wavefront of flights, times of impact and impacts; the f64 reference for what lanes leave)",
+                scene.precision().name()
+            )
         }
         Placement::Contact(_) => {
             let kept = if keep == Keep::NONE {

@@ -35,7 +35,7 @@ use crate::stats::Moments;
 use crate::stats::RunResult;
 
 /// Version of the state files' layout.
-pub const STATE_VERSION: u32 = 2;
+pub const STATE_VERSION: u32 = 3;
 
 /// `shard.json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -213,6 +213,9 @@ pub struct DropSummary {
     /// Most frequent first.
     pub sequences: Vec<SequenceSummary>,
     pub bounces: Vec<BounceSummary>,
+    /// Flights and impacts the lanes left to the f64 reference.
+    pub reference_flights: u64,
+    pub reference_impacts: u64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -327,6 +330,8 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
             })
             .collect(),
         bounces,
+        reference_flights: a.reference_flights,
+        reference_impacts: a.reference_impacts,
     }
 }
 
@@ -524,11 +529,10 @@ impl Summary {
                 .map(|(law, acc)| (law.name(), drop_summary(acc, &contacts)))
                 .collect(),
         );
-        // The precision the values were computed in (a drop's body runs
-        // the f64 reference), as the per-sample rows have it.
-        let precision = crate::output::samples::RowLayout::of(scene)
-            .precision
-            .name();
+        // The precision the lanes computed in (a drop's per-impact rows
+        // are f64 whatever it is: its walks carry f64 states between
+        // flights).
+        let precision = scene.precision().name();
         Summary {
             scene: scene.name().to_string(),
             samples,
@@ -669,6 +673,11 @@ fn drop_text(s: &mut String, d: &DropSummary) {
         "  ended: flew away {:.4}, came to rest {:.4}, bounce limit {:.4}, unsolved {:.2e}, stalled {:.2e}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
         e.flew_away, e.came_to_rest, e.bounce_limit, e.unsolved, e.stalled,
         up.a, up.b, up.c
+    );
+    let _ = writeln!(
+        s,
+        "  by the f64 reference where lanes left them: {} flights, {} impacts",
+        d.reference_flights, d.reference_impacts
     );
     let _ = writeln!(
         s,

@@ -71,11 +71,7 @@ fn rows(scene: &Scene, count: u64) -> (RunAcc, Vec<Row>) {
 /// The reference's next impact from `start` under `law`: the time to it
 /// (over touches without an impulse), the planes that took an impulse and
 /// the state after. `None` if it flies away or cannot be solved.
-fn reference_impact(
-    scene: &Scene,
-    start: Motion,
-    law: Law,
-) -> Option<(f64, u16, DVec3, DVec3, DMat3)> {
+fn reference_impact(scene: &Scene, start: Motion, law: Law) -> Option<(f64, u16, DVec3, DVec3)> {
     let fx = scene.effects();
     let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
     let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
@@ -111,7 +107,7 @@ fn reference_impact(
             .filter(|(_, c)| c.impulse > 0.0)
             .fold(0u16, |s, (i, _)| s | 1 << i);
         if mask != 0 {
-            return Some((time, mask, o.after.velocity, o.after.omega, m.rotation));
+            return Some((time, mask, o.after.velocity, o.after.omega));
         }
     }
     None
@@ -121,10 +117,9 @@ fn reference_impact(
 #[derive(Debug, Default)]
 struct Agreement {
     impacts: usize,
-    /// Impacts whose planes differ from the reference's, and those among
-    /// them where a second plane was within `near` of contact.
+    /// Impacts whose planes differ from the reference's (or where the
+    /// reference, from the same state, finds no impact).
     other_planes: usize,
-    other_planes_near: usize,
     /// The largest differences where the planes agree: the time to the
     /// impact (s), and the state after relative to the velocity scale
     /// |v| + a_max |ω| before it.
@@ -135,7 +130,7 @@ struct Agreement {
     after_p99: f64,
 }
 
-fn agreement(scene: &Scene, samples: u64, near: f64) -> Agreement {
+fn agreement(scene: &Scene, samples: u64) -> Agreement {
     let (_, rows) = rows(scene, samples);
     let Placement::Drop(start) = *scene.placement() else {
         unreachable!()
@@ -144,7 +139,7 @@ fn agreement(scene: &Scene, samples: u64, near: f64) -> Agreement {
     let boxes = impactmc::sampler::rng::drop_start_rng(scene.seed());
     let reach = scene.body().semi_axes().max_element();
     let mut a = Agreement::default();
-    let (mut times, mut afters, mut rots) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut times, mut afters) = (Vec::new(), Vec::new());
     for (k, row) in rows.iter().enumerate() {
         let law = scene.laws()[row.walk.1 as usize];
         let from = match k.checked_sub(1).map(|j| &rows[j]) {
@@ -160,42 +155,12 @@ fn agreement(scene: &Scene, samples: u64, near: f64) -> Agreement {
         };
         a.impacts += 1;
         let want = reference_impact(scene, from, law);
-        let Some((time, mask, v, w, r)) = want else {
+        let Some((time, mask, v, w)) = want else {
             a.other_planes += 1;
-            if a.other_planes < 6 {
-                println!(
-                    "none: walk {:?} interval {} energy {} d0 {} vn {}",
-                    row.walk,
-                    row.interval(),
-                    row.f[15],
-                    row.f[24],
-                    row.f[25]
-                );
-                let fx = scene.effects();
-                let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
-                let hit = time_of_impact(
-                    scene.body(),
-                    &from,
-                    &planes,
-                    DVec3::new(0.0, 0.0, -fx.gravity),
-                    Rotation::exact_for(scene.body()),
-                    fx.toi_tolerance,
-                    fx.horizon,
-                );
-                println!(
-                    "   ref hit: {:?}",
-                    hit.map(|h| (h.time, h.distances, h.iterations))
-                );
-            }
             continue;
         };
         if mask != row.planes {
             a.other_planes += 1;
-            let mut d: Vec<f64> = (0..scene.planes().len())
-                .map(|i| row.f[24 + 4 * i])
-                .collect();
-            d.sort_by(f64::total_cmp);
-            a.other_planes_near += (d.len() > 1 && d[1] <= near) as usize;
             continue;
         }
         let m = row.motion();
@@ -206,11 +171,6 @@ fn agreement(scene: &Scene, samples: u64, near: f64) -> Agreement {
             .max_element()
             .max((gw - w).abs().max_element() * reach);
         times.push((row.interval() - time).abs());
-        let rel = m.rotation.transpose() * r;
-        let angle = ((rel.x_axis.x + rel.y_axis.y + rel.z_axis.z - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos();
-        rots.push(angle);
         afters.push(dv / scale);
     }
     for (v, worst, p99) in [
@@ -221,25 +181,111 @@ fn agreement(scene: &Scene, samples: u64, near: f64) -> Agreement {
         *worst = v.last().copied().unwrap_or(0.0);
         *p99 = v.get(v.len() * 99 / 100).copied().unwrap_or(0.0);
     }
-    rots.sort_by(f64::total_cmp);
-    if !rots.is_empty() {
-        println!(
-            "rotation: median {:e} p99 {:e} max {:e}",
-            rots[rots.len() / 2],
-            rots[rots.len() * 99 / 100],
-            rots[rots.len() - 1]
-        );
-    }
     a
 }
 
+const SCENES: [&str; 3] = ["drop_corner", "drop_dice", "drop_dice_frictionless"];
+
+/// f64 lanes: over 10⁴ samples of every shipped drop scene, every impact
+/// on the reference's planes, at its time to 1e-9 s and with its state
+/// after to 1e-9 of the velocity scale (measured 2026-12-04: at most
+/// 5e-13 s and 2e-11).
 #[test]
-fn explore() {
-    for name in ["drop_corner", "drop_dice", "drop_dice_frictionless"] {
-        for precision in ["f64", "f32"] {
+fn f64_lanes_are_the_reference_impact_by_impact() {
+    for name in SCENES {
+        let a = agreement(&shipped_scene(name, "f64"), 10_000);
+        assert!(a.impacts > 40_000, "{name}: {a:?}");
+        assert_eq!(a.other_planes, 0, "{name}: {a:?}");
+        assert!(a.time <= 1e-9 && a.after <= 1e-9, "{name}: {a:?}");
+    }
+}
+
+/// f32 lanes: the search stops within the f32 floor of contact (256 ulp of
+/// the largest semi-axis), so an impact comes up to floor/|v_n| early and
+/// the state after it differs by what the body turns and falls meanwhile.
+/// The documented tolerance, over 10⁴ samples of every shipped drop scene
+/// (measured 2026-12-04 in brackets): the corner's impacts on the
+/// reference's planes but for 0.1 % (1 in 10⁴), times to 1e-4 s and states
+/// to 1e-3 of the velocity scale at the 99th percentile (4e-5 s, 2e-4); the
+/// die's, whose late bounces rock with normal speeds of mm/s and start
+/// where the reference (at its 1e-9 m tolerance) sees the floor
+/// penetrated, 2 % (0.8 % rough, 0.2 % smooth), 2e-3 s and 3e-2 (4e-4 s,
+/// 9e-3).
+#[test]
+fn f32_lanes_agree_with_the_reference_within_the_documented_tolerance() {
+    for (name, other, time, after) in [
+        ("drop_corner", 1e-3, 1e-4, 1e-3),
+        ("drop_dice", 2e-2, 2e-3, 3e-2),
+        ("drop_dice_frictionless", 2e-2, 2e-3, 3e-2),
+    ] {
+        let a = agreement(&shipped_scene(name, "f32"), 10_000);
+        assert!(a.impacts > 40_000, "{name}: {a:?}");
+        assert!(
+            a.other_planes as f64 <= other * a.impacts as f64,
+            "{name}: {a:?}"
+        );
+        assert!(a.time_p99 <= time && a.after_p99 <= after, "{name}: {a:?}");
+    }
+}
+
+/// The lanes' walks and the reference's, run as whole runs, give the same
+/// statistics within Monte Carlo error, drop_corner in both precisions and
+/// drop_dice in f64: every ending's
+/// and the first impact's plane fractions within 4 standard errors, and the
+/// mean energy ratio of each of the first three bounces within 4 standard
+/// errors.
+#[test]
+fn lane_statistics_agree_with_the_reference() {
+    // drop_dice in f32 does not: its late bounces rock within the f32
+    // search floor, and 8.7 % of its walks stall (20,000 samples, against
+    // none in f64), so 89.5 % reach the bounce limit against 98.3 %.
+    for (name, precision) in [
+        ("drop_corner", "f64"),
+        ("drop_corner", "f32"),
+        ("drop_dice", "f64"),
+    ] {
+        {
             let s = shipped_scene(name, precision);
-            let a = agreement(&s, 2000, 1e-3);
-            println!("{name} {precision}: {a:?}");
+            let n = 20_000;
+            let (lanes, _) = rows(&s, n);
+            let reference = {
+                let Placement::Drop(start) = *s.placement() else {
+                    unreachable!()
+                };
+                let ctx = DropCtx::new(&s, start, Keep::default()).by_reference();
+                let mut acc = RunAcc::shaped(Shape::of(&s));
+                ctx.run(0, n, &mut acc, None);
+                acc.flush();
+                acc
+            };
+            let (a, b) = (&lanes.drops[0], &reference.drops[0]);
+            let close = |what: &str, x: u64, y: u64| {
+                let (p, q) = (x as f64 / n as f64, y as f64 / n as f64);
+                let se = ((p * (1.0 - p) + q * (1.0 - q)) / n as f64)
+                    .sqrt()
+                    .max(1.0 / n as f64);
+                assert!(
+                    (p - q).abs() <= 4.0 * se,
+                    "{name} {precision} {what}: {p} vs {q}"
+                );
+            };
+            for (k, (x, y)) in a.endings.iter().zip(&b.endings).enumerate() {
+                close(&format!("ending {k}"), *x, *y);
+            }
+            for (m, (x, y)) in a.bounces[0].sets.iter().zip(&b.bounces[0].sets).enumerate() {
+                close(&format!("first planes {m}"), *x, *y);
+            }
+            for k in 0..3 {
+                let (x, y) = (&a.bounces[k].energy_ratio, &b.bounces[k].energy_ratio);
+                let se =
+                    (x.sd().powi(2) / x.count() as f64 + y.sd().powi(2) / y.count() as f64).sqrt();
+                assert!(
+                    (x.mean() - y.mean()).abs() <= 4.0 * se,
+                    "{name} {precision} bounce {k}: {} vs {}",
+                    x.mean(),
+                    y.mean()
+                );
+            }
         }
     }
 }
