@@ -76,6 +76,10 @@ struct Lane {
     item: usize,
     law: usize,
     walk: Walk,
+    /// Its flights are flown by the reference from now on (a coarse
+    /// lane's touch without approach: the walk rocks within the lanes'
+    /// floor).
+    by_reference: bool,
 }
 
 /// A lane's impact waiting for the kernel.
@@ -97,6 +101,13 @@ struct Moves<'a> {
     lanes: &'a mut [Option<Lane>],
     logs: &'a mut [Log],
     floor: f64,
+    /// Planes within this distance take part ([`Wave::contact_tolerance`]).
+    tolerance: f64,
+    /// Touches without approach are flown again by the reference
+    /// ([`Wave::coarse`]).
+    coarse: bool,
+    /// The lanes whose flight the reference flies again.
+    refly: &'a mut Vec<usize>,
 }
 
 impl Moves<'_> {
@@ -104,6 +115,11 @@ impl Moves<'_> {
     /// solve it), by the reference or not.
     fn apply(&mut self, p: &Pending, strike: Option<&Strike>, by_reference: bool) {
         let lane = self.lanes[p.lane].as_mut().expect("live lane");
+        if self.coarse && strike.is_some_and(|s| s.mask() == 0) {
+            // The walk stays at its flight's start.
+            self.refly.push(p.lane);
+            return;
+        }
         let log = &mut self.logs[lane.item];
         log.reference_impacts += by_reference as u32;
         let how = How {
@@ -137,11 +153,18 @@ pub(crate) struct Wave<T, const N: usize> {
     setup_work: Box<SetupWork>,
     setup: Box<Setup>,
     pending: Vec<Pending>,
+    refly: Vec<usize>,
     /// Planes within this distance at an impact take part (the scene's
     /// contact tolerance, or the lanes' search tolerance if larger).
     contact_tolerance: f64,
     /// Flights in lanes (false: every flight by the reference).
     closed_form: bool,
+    /// The lanes' search stops farther from contact than the scene's
+    /// `toi_tolerance` (f32). A touch without approach is then an early
+    /// stop within the lanes' floor (a rocking body whose contact point
+    /// approaches only nearer the plane), so the reference flies that
+    /// flight again from its start.
+    coarse: bool,
 }
 
 impl<T: Real, const N: usize> Wave<T, N> {
@@ -154,6 +177,7 @@ impl<T: Real, const N: usize> Wave<T, N> {
             FlightLanes::new(scene.body(), &planes, gravity, fx.toi_tolerance, fx.horizon);
         Self {
             contact_tolerance: ctx.flight.contact_tolerance.max(flights.tolerance()),
+            coarse: flights.tolerance() > fx.toi_tolerance,
             flights,
             times: Times::new(),
             poses: Poses::new(),
@@ -164,6 +188,7 @@ impl<T: Real, const N: usize> Wave<T, N> {
             setup_work: SetupWork::new(),
             setup: Setup::new(),
             pending: Vec::with_capacity(BLOCK),
+            refly: Vec::with_capacity(BLOCK),
             closed_form: Flight::rotation_of(scene) == Rotation::Elliptic,
         }
     }
@@ -191,6 +216,7 @@ impl DropCtx<'_> {
                     item,
                     law: item % laws,
                     walk: Walk::new(start),
+                    by_reference: false,
                 }
             })
         };
@@ -269,7 +295,7 @@ impl DropCtx<'_> {
             for (s, mut lane) in queue.drain(..) {
                 while let Some(mut l) = lane.take() {
                     match l.walk.fly(bounces) {
-                        None if w.closed_form => ready.push((s, l)),
+                        None if w.closed_form && !l.by_reference => ready.push((s, l)),
                         None => {
                             let log = &mut logs[l.item];
                             log.reference_flights += 1;
@@ -400,6 +426,9 @@ impl DropCtx<'_> {
             pending,
             kernels,
             lanes,
+            refly,
+            coarse,
+            contact_tolerance,
             ..
         } = w;
         pending.sort_unstable_by_key(|p| (p.mask, law_key(p.law), p.lane));
@@ -407,12 +436,15 @@ impl DropCtx<'_> {
             lanes,
             logs,
             floor: self.scene.effects().energy_floor,
+            tolerance: *contact_tolerance,
+            coarse: *coarse,
+            refly,
         };
         for group in pending.chunk_by(|a, b| a.mask == b.mask && a.law == b.law) {
             let mask = group[0].mask;
             if mask == usize::MAX {
                 for p in group {
-                    out.apply(p, self.reference_strike(p).as_ref(), true);
+                    out.apply(p, self.reference_strike(p, out.tolerance).as_ref(), true);
                 }
                 continue;
             }
@@ -431,6 +463,17 @@ impl DropCtx<'_> {
             }
         }
         pending.clear();
+        for s in refly.drain(..) {
+            let lane = lanes[s].as_mut().expect("live lane");
+            lane.by_reference = true;
+            let log = &mut logs[lane.item];
+            log.reference_flights += 1;
+            let law = self.scene.laws()[lane.law];
+            if let Some(e) = self.reference_flight(law, &mut lane.walk, log) {
+                lane.walk.finish(e, log);
+                lanes[s] = None;
+            }
+        }
     }
 
     /// The kernel of the planes in `mask` (one to three).
@@ -485,7 +528,7 @@ impl DropCtx<'_> {
             for (s, p) in chunk.iter().enumerate() {
                 let st = k.out.status[s];
                 if st & RECOMPUTE != 0 {
-                    out.apply(p, self.reference_strike(p).as_ref(), true);
+                    out.apply(p, self.reference_strike(p, out.tolerance).as_ref(), true);
                 } else {
                     out.apply(p, Some(&self.strike_of(k, s, st, &p.motion)), false);
                 }
@@ -570,9 +613,10 @@ impl DropCtx<'_> {
         }
     }
 
-    /// The impact by the f64 reference at the lanes' motion (`None`: it
-    /// cannot be solved).
-    fn reference_strike(&self, p: &Pending) -> Option<Strike> {
+    /// The impact by the f64 reference at the lanes' motion, with the
+    /// planes within `tolerance` taking part, as the lanes take them
+    /// (`None`: it cannot be solved).
+    fn reference_strike(&self, p: &Pending, tolerance: f64) -> Option<Strike> {
         let body = self.scene.body();
         let pose = Pose {
             rotation: p.motion.rotation,
@@ -583,8 +627,7 @@ impl DropCtx<'_> {
             omega: p.motion.omega,
         };
         let planes = &self.flight.planes;
-        let tol = self.flight.contact_tolerance;
-        let o = solve_impact(body, pose, state, planes, p.law, tol).ok()?;
+        let o = solve_impact(body, pose, state, planes, p.law, tolerance).ok()?;
         let distances: Vec<f64> = o.contacts.iter().map(|c| c.geometry.distance).collect();
         Some(Strike::of(&o, &distances))
     }

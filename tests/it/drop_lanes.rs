@@ -16,6 +16,7 @@ use impactmc::output::samples::{Floats, SampleRows};
 use impactmc::physics::{solve_impact, time_of_impact, Law, Motion, Pose, Rotation, State};
 use impactmc::sampler::Sampler;
 use impactmc::stats::accumulators::{RunAcc, Shape};
+use impactmc::stats::drops::Ending;
 
 /// One impact's row: the walk (sample, law), bounce, planes, and the float
 /// columns (`samples::drop_columns`).
@@ -229,20 +230,18 @@ fn f32_lanes_agree_with_the_reference_within_the_documented_tolerance() {
 }
 
 /// The lanes' walks and the reference's, run as whole runs, give the same
-/// statistics within Monte Carlo error, drop_corner in both precisions and
-/// drop_dice in f64: every ending's
+/// statistics within Monte Carlo error, drop_corner and drop_dice in both
+/// precisions: every ending's
 /// and the first impact's plane fractions within 4 standard errors, and the
 /// mean energy ratio of each of the first three bounces within 4 standard
 /// errors.
 #[test]
 fn lane_statistics_agree_with_the_reference() {
-    // drop_dice in f32 does not: its late bounces rock within the f32
-    // search floor, and 8.7 % of its walks stall (20,000 samples, against
-    // none in f64), so 89.5 % reach the bounce limit against 98.3 %.
     for (name, precision) in [
         ("drop_corner", "f64"),
         ("drop_corner", "f32"),
         ("drop_dice", "f64"),
+        ("drop_dice", "f32"),
     ] {
         {
             let s = shipped_scene(name, precision);
@@ -270,6 +269,17 @@ fn lane_statistics_agree_with_the_reference() {
                 );
             };
             for (k, (x, y)) in a.endings.iter().zip(&b.endings).enumerate() {
+                if k == Ending::Stalled as usize && precision == "f32" {
+                    // The documented exception: f32 walks that rock within
+                    // the lanes' floor are flown on by the reference from
+                    // a state up to a floor's width off, and a few of
+                    // those may stall in a rolling contact (measured
+                    // 2026-12-04 over 20,000 walks: none of the corner's
+                    // or the die's under newton, 2 of the die's under
+                    // stronge; the reference's own: none).
+                    assert!(*x as f64 <= 1e-3 * n as f64, "{name} f32 stalled: {x}");
+                    continue;
+                }
                 close(&format!("ending {k}"), *x, *y);
             }
             for (m, (x, y)) in a.bounces[0].sets.iter().zip(&b.bounces[0].sets).enumerate() {

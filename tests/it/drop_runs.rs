@@ -169,24 +169,28 @@ fn bouncing_sphere_matches_the_closed_form() {
 
 #[test]
 fn drop_results_do_not_depend_on_threads() {
-    let s = load_scene(
-        &repo("configs/drop_corner.toml"),
-        &Overrides {
-            samples: Some(3000),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let strip = |r: impactmc::stats::RunResult| {
-        let mut v = serde_json::to_value(Summary::new(&s, &r)).unwrap();
-        v.as_object_mut().unwrap().remove("throughput");
-        v.as_object_mut().unwrap().remove("threads");
-        v
-    };
-    let one = strip(run_drop(&s, 1));
-    let two = strip(run_drop(&s, 2));
-    assert_eq!(one, two);
-    assert_eq!(one["drops"]["newton"]["bounces"][0]["reached"], 3000);
+    for precision in ["f64", "f32"] {
+        let s = load_scene(
+            &repo("configs/drop_corner.toml"),
+            &Overrides {
+                samples: Some(3000),
+                precision: Some(precision.parse().unwrap()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let strip = |r: impactmc::stats::RunResult| {
+            let mut v = serde_json::to_value(Summary::new(&s, &r)).unwrap();
+            v.as_object_mut().unwrap().remove("throughput");
+            v.as_object_mut().unwrap().remove("threads");
+            v
+        };
+        let one = strip(run_drop(&s, 1));
+        let two = strip(run_drop(&s, 2));
+        assert_eq!(one, two, "{precision}");
+        assert_eq!(one["precision"], precision);
+        assert_eq!(one["drops"]["newton"]["bounces"][0]["reached"], 3000);
+    }
 }
 
 #[test]
@@ -446,7 +450,8 @@ fn strip_timing(mut v: serde_json::Value) -> serde_json::Value {
 }
 
 /// Three shards of drop_corner (two laws, every histogram kept), merged,
-/// give the single run's summary and tables to the last bit.
+/// give the single run's summary and tables to the last bit, in the lanes
+/// of either precision.
 #[test]
 fn drop_shards_merge_to_the_single_run() {
     let text = std::fs::read_to_string(repo("configs/drop_corner.toml"))
@@ -455,45 +460,61 @@ fn drop_shards_merge_to_the_single_run() {
         + "\n[statistics]\nquantiles = [\"energy_ratio\", \"omega_after_norm\", \
            \"velocity_after_norm\", \"impulse\", \"rebound\"]\n";
     let scene = write_scene("shards", &text);
-    let root = scene.parent().unwrap().to_path_buf();
-    let args = ["--samples", "5000", "--law", "newton", "--law", "paper"];
-    let single = run_cli(&scene, &root.join("single"), &args);
-    let mut dirs = Vec::new();
-    for i in 0..3 {
-        let d = root.join(format!("shard-{i}"));
-        let shard = format!("{i}/3");
-        let mut a = args.to_vec();
-        a.extend(["--shard", &shard, "--threads", "1"]);
-        run_cli(&scene, &d, &a);
-        dirs.push(d);
-    }
-    let o = bin()
-        .arg("merge")
-        .args(&dirs)
-        .args(["--format", "json", "--out"])
-        .arg(root.join("merged"))
-        .output()
-        .unwrap();
-    support::assert_succeeded(&o);
-    let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(strip_timing(merged), strip_timing(single.clone()));
-    assert_eq!(single["drops"]["paper"]["samples"], 5000);
-    for table in [
-        "summary.parquet",
-        "histograms.parquet",
-        "bounces.parquet",
-        "planes_hit.parquet",
-        "simultaneity.parquet",
-        "sequences.parquet",
-    ] {
-        let read = |d: &std::path::Path| {
-            let f = std::fs::File::open(d.join(table)).unwrap();
-            polars::prelude::ParquetReader::new(f).finish().unwrap()
-        };
-        use polars::prelude::SerReader;
-        let (a, b) = (read(&root.join("single")), read(&root.join("merged")));
-        assert!(a.height() > 0, "{table} is empty");
-        assert!(a.equals_missing(&b), "{table} differs");
+    for precision in ["f64", "f32"] {
+        let root = scene.parent().unwrap().join(precision);
+        let args = [
+            "--samples",
+            "5000",
+            "--law",
+            "newton",
+            "--law",
+            "paper",
+            "--precision",
+            precision,
+        ];
+        let single = run_cli(&scene, &root.join("single"), &args);
+        let mut dirs = Vec::new();
+        for i in 0..3 {
+            let d = root.join(format!("shard-{i}"));
+            let shard = format!("{i}/3");
+            let mut a = args.to_vec();
+            a.extend(["--shard", &shard, "--threads", "1"]);
+            run_cli(&scene, &d, &a);
+            dirs.push(d);
+        }
+        let o = bin()
+            .arg("merge")
+            .args(&dirs)
+            .args(["--format", "json", "--out"])
+            .arg(root.join("merged"))
+            .output()
+            .unwrap();
+        support::assert_succeeded(&o);
+        let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            strip_timing(merged),
+            strip_timing(single.clone()),
+            "{precision}"
+        );
+        assert_eq!(single["precision"], precision);
+        assert_eq!(single["drops"]["paper"]["samples"], 5000);
+        for table in [
+            "summary.parquet",
+            "histograms.parquet",
+            "bounces.parquet",
+            "planes_hit.parquet",
+            "simultaneity.parquet",
+            "sequences.parquet",
+        ] {
+            let read = |d: &std::path::Path| {
+                let f = std::fs::File::open(d.join(table)).unwrap();
+                polars::prelude::ParquetReader::new(f).finish().unwrap()
+            };
+            use polars::prelude::SerReader;
+            let (a, b) = (read(&root.join("single")), read(&root.join("merged")));
+            assert!(a.height() > 0, "{table} is empty");
+            assert!(a.equals_missing(&b), "{precision} {table} differs");
+        }
     }
 }
 

@@ -231,29 +231,31 @@ fn seeded_friction_summaries_are_frozen() {
 
 /// The drop scenes, seeded: the triaxial corner rattle under `newton` and
 /// `paper`, and the rough die under `newton` and `stronge` (whose impacts
-/// on several planes at once fall back to `newton`). Drops run the f64
-/// reference whatever the precision asked, so f64 only.
+/// on several planes at once fall back to `newton`), in the lanes of each
+/// precision.
 #[test]
 fn seeded_drop_summaries_are_frozen() {
     let mut got = Vec::new();
-    for (name, laws) in [
-        ("drop_corner", &["newton", "paper"][..]),
-        ("drop_dice", &["newton", "stronge"][..]),
-    ] {
-        let s = load_scene(
-            &repo(&format!("configs/{name}.toml")),
-            &Overrides {
-                samples: Some(10_000),
-                seed: Some(2026),
-                precision: Some("f64".parse().expect("f64")),
-                laws: Some(laws.iter().map(|l| l.to_string()).collect()),
-                ..Default::default()
-            },
-        )
-        .expect("shipped scene");
-        // 4096-sample batches: three of them, so the merge tree is exercised.
-        got.extend(run_lines(&format!("{name} f64"), &s));
+    for precision in ["f64", "f32"] {
+        for (name, laws) in [
+            ("drop_corner", &["newton", "paper"][..]),
+            ("drop_dice", &["newton", "stronge"][..]),
+        ] {
+            let s = load_scene(
+                &repo(&format!("configs/{name}.toml")),
+                &Overrides {
+                    samples: Some(10_000),
+                    seed: Some(2026),
+                    precision: Some(precision.parse().expect("f32 or f64")),
+                    laws: Some(laws.iter().map(|l| l.to_string()).collect()),
+                    ..Default::default()
+                },
+            )
+            .expect("shipped scene");
+            // 4096-sample batches: three of them, so the merge tree is exercised.
+            got.extend(run_lines(&format!("{name} {precision}"), &s));
+        }
     }
-    assert_eq!(got.len(), 2 * 2 * 2);
+    assert_eq!(got.len(), 2 * 2 * 2 * 2);
     check_frozen(FROZEN_DROPS, &got);
 }
