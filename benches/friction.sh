@@ -2,7 +2,7 @@
 # Friction side by side with the frictionless scenes, end to end, two
 # threads, summary statistics only: S1 without friction and with μ = 0.5
 # (configs/floor_friction.toml), S3 without friction and with μ = 0.3 on
-# every wall (corner3 with `friction = 0.3` added to each plane), and the
+# every wall (configs/corner3_friction.toml), and the
 # frictionless scenes with the frictional kernel kept (`--keep friction`),
 # in SERIES interleaved series. Prints one line per run: the scene, the
 # law, the precision, samples/s, the fraction recomputed by the f64
@@ -36,7 +36,7 @@ for s in $(seq "$series"); do
     one configs/floor_friction.toml stronge f64 40000
     one configs/corner3.toml newton f32 100000000
     one configs/corner3.toml newton f32 4000000 --keep friction
-    one "$out/corner3_mu03.toml" newton f32 100000
-    one "$out/corner3_mu03.toml" paper f32 2000000
-    one "$out/corner3_mu03.toml" pgs8 f32 1000000
+    one configs/corner3_friction.toml newton f32 100000
+    one configs/corner3_friction.toml paper f32 2000000
+    one configs/corner3_friction.toml pgs8 f32 1000000
 done

@@ -1,7 +1,7 @@
 # Shared by the end-to-end bench scripts (sourced): the release build, its
 # binary in $bin, $threads (THREADS, default 2), the scratch folder $out
-# (created) and, in it, corner3_mu03.toml (S3 with μ = 0.3 on every wall)
-# and drop_corner_1.toml (drop_corner up to its first impact).
+# (created) and, in it, drop_corner_1.toml (drop_corner up to its first
+# impact).
 # usage: source benches/lib.sh SCRATCH_DIR
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -10,7 +10,5 @@ threads=${THREADS:-2}
 mkdir -p "$out"
 cargo build --release --quiet
 bin=target/release/impactmc
-sed 's/^restitution = \(.*\)$/restitution = \1\nfriction = 0.3/' configs/corner3.toml \
-    > "$out/corner3_mu03.toml"
 sed 's/^bounces = 5$/bounces = 1/' configs/drop_corner.toml > "$out/drop_corner_1.toml"
 grep -q '^bounces = 1$' "$out/drop_corner_1.toml"

@@ -42,6 +42,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
         ("floor_sphere", false, false, false, "none", 1, "closed-form", Some(0.0)),
         ("corner2_paper", true, true, false, "none", 1, "rotation+lcp", None),
         ("corner3", true, true, false, "none", 1, "rotation+lcp", None),
+        ("corner3_friction", true, true, false, "none", 1, "friction", None),
         ("corner3_sphere", false, false, false, "none", 1, "closed-form", None),
         ("sweep_aspect_ratio", true, false, false, "none", 1, "rotation", None),
         ("accuracy_corner3", true, true, false, "none", 1, "rotation+lcp", None),
@@ -72,7 +73,10 @@ fn derived_effect_sets_of_the_shipped_scenes() {
             e.friction,
             matches!(
                 name,
-                "floor_friction" | "drop_dice" | "accuracy_corner3_friction"
+                "floor_friction"
+                    | "corner3_friction"
+                    | "drop_dice"
+                    | "accuracy_corner3_friction"
             ),
             "{name}: friction"
         );
