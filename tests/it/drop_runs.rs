@@ -73,10 +73,7 @@ fn derived_effect_sets_of_the_shipped_scenes() {
             e.friction,
             matches!(
                 name,
-                "floor_friction"
-                    | "corner3_friction"
-                    | "drop_dice"
-                    | "accuracy_corner3_friction"
+                "floor_friction" | "corner3_friction" | "drop_dice" | "accuracy_corner3_friction"
             ),
             "{name}: friction"
         );

@@ -15,6 +15,7 @@ mod effects;
 mod engine_runs;
 mod flight;
 mod flight_lanes;
+mod friction_certificate;
 mod friction_invariants;
 mod friction_kernel;
 mod friction_scenes;

@@ -17,8 +17,8 @@ mod roots;
 mod single;
 mod stronge;
 
-pub use gauss_seidel::{newton, paper, pgs, Contacts, Solved};
-pub use single::{single_contact, Single};
+pub use gauss_seidel::{newton, newton_with, paper, pgs, Contacts, Solved};
+pub use single::{certified, single_contact, single_contact_full, Case, Single};
 pub use stronge::stronge;
 
 use glam::{DMat3, DVec3};

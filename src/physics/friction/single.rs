@@ -6,6 +6,22 @@ use glam::{DMat3, DVec3};
 use super::roots::{poly_roots, C};
 use super::tangent_basis;
 
+/// Which case of the single-contact solve an impulse is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Case {
+    /// `c_n + b ≥ 0`: no impulse.
+    #[default]
+    TakeOff,
+    /// μ = 0 and approaching: a normal impulse.
+    Normal,
+    /// `c⁺ = −b n` inside the cone.
+    Stick,
+    /// `P = λ(n − μ ŝ)` with `c⁺_t = s ŝ`, `s > 0`.
+    Slide,
+    /// No valid case: the frictionless fallback.
+    Unsolved,
+}
+
 /// What one single-contact solve found.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Single {
@@ -16,6 +32,41 @@ pub struct Single {
     pub ambiguous: bool,
     /// No valid case: the frictionless fallback `max(−c_n, 0)/W_nn · n`.
     pub unsolved: bool,
+    /// The case the impulse is.
+    pub case: Case,
+}
+
+/// friction.md's certificate B3, which depends on W and μ only: with
+/// `S = W_tt − w_t w_tᵀ/W_nn`,
+/// `(μ/W_nn)(|w_t| + sqrt(λ_max(S) · w_tᵀ S⁻¹ w_t)) < 2` (here with a
+/// relative margin of 1e-9). Where it holds, a valid stick excludes every
+/// valid slide root, and without a valid stick exactly one slide root is
+/// valid.
+pub fn certified(w: &DMat3, n: DVec3, mu: f64) -> bool {
+    let (t1, t2) = tangent_basis(n);
+    let wn = *w * n;
+    let wtt = [
+        [t1.dot(*w * t1), t1.dot(*w * t2)],
+        [t2.dot(*w * t1), t2.dot(*w * t2)],
+    ];
+    b3(n.dot(wn), [t1.dot(wn), t2.dot(wn)], wtt, mu)
+}
+
+/// B3 in a tangent basis: `W_nn`, `w_t` and `W_tt`.
+fn b3(w_nn: f64, wt: [f64; 2], wtt: [[f64; 2]; 2], mu: f64) -> bool {
+    let s00 = wtt[0][0] - wt[0] * wt[0] / w_nn;
+    let s11 = wtt[1][1] - wt[1] * wt[1] / w_nn;
+    let s01 = 0.5 * (wtt[0][1] + wtt[1][0]) - wt[0] * wt[1] / w_nn;
+    let det = s00 * s11 - s01 * s01;
+    if !(det > 0.0 && s00 > 0.0) {
+        return false;
+    }
+    let half_tr = 0.5 * (s00 + s11);
+    let lambda_max = half_tr + (0.25 * (s00 - s11) * (s00 - s11) + s01 * s01).sqrt();
+    // w_tᵀ S⁻¹ w_t with S⁻¹ = adj(S)/det.
+    let q = (s11 * wt[0] * wt[0] - 2.0 * s01 * wt[0] * wt[1] + s00 * wt[1] * wt[1]) / det;
+    let wt_len = (wt[0] * wt[0] + wt[1] * wt[1]).sqrt();
+    mu / w_nn * (wt_len + (lambda_max * q.max(0.0)).sqrt()) < 2.0 * (1.0 - 1e-9)
 }
 
 /// The single-contact solve of friction.md: free contact-point velocity
@@ -23,6 +74,16 @@ pub struct Single {
 /// coefficient `mu` and the velocity scale `vscale` (for the slide root
 /// that is the stick solution itself).
 pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64) -> Single {
+    solve(c, b, w, n, mu, vscale, true)
+}
+
+/// [`single_contact`] without B3's shortcuts: every case tried, every
+/// slide root searched (what the certificate is tested against).
+pub fn single_contact_full(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64) -> Single {
+    solve(c, b, w, n, mu, vscale, false)
+}
+
+fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: bool) -> Single {
     let cn = n.dot(c);
     let a = cn + b;
     // 1. Take-off.
@@ -34,6 +95,7 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
     if mu == 0.0 {
         return Single {
             impulse: n * (-a / w_nn),
+            case: Case::Normal,
             ..Single::default()
         };
     }
@@ -51,6 +113,15 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
         [t1.dot(*w * t1), t1.dot(*w * t2)],
         [t2.dot(*w * t1), t2.dot(*w * t2)],
     ];
+    // Where B3 certifies the solve, a valid stick is the only solution.
+    let certain = shortcut && b3(w_nn, wt, wtt, mu);
+    if certain && stick_ok {
+        return Single {
+            impulse: stick,
+            case: Case::Stick,
+            ..Single::default()
+        };
+    }
     // Per angle: (D, the vector D c_t − a (w_t − μ W_tt ŝ)).
     let parts = |th: f64| -> (f64, [f64; 2]) {
         let (s, co) = th.sin_cos();
@@ -71,23 +142,77 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
         let (_, v) = parts(th);
         -s * v[0] + co * v[1]
     };
-    let mut candidates = slide_angles(&f);
-    candidates.sort_by(f64::total_cmp);
-    let mut slides: Vec<(DVec3, f64)> = Vec::new();
-    for th in candidates {
+    // The slide root that a valid angle `th` gives: (P, s), if D > 0 and
+    // s is beyond the stick solution's own.
+    let slide_at = |th: f64| -> Option<(DVec3, f64)> {
         let (d, v) = parts(th);
         if !(d > 0.0) {
-            continue;
+            return None;
         }
         let (s, co) = th.sin_cos();
         // c⁺_t = s ŝ with s = ŝ·v / D.
         let speed = (co * v[0] + s * v[1]) / d;
         if !(speed > 1e-9 * vscale) {
-            continue;
+            return None;
         }
         let dir = t1 * co + t2 * s;
-        let lambda = -a / d;
-        let p = lambda * (n - mu * dir);
+        Some((-a / d * (n - mu * dir), speed))
+    };
+    if certain {
+        // Exactly one valid slide root: Newton's method on F from the
+        // direction of c_t + (−a/W_nn) w_t (the sliding direction under
+        // the frictionless normal impulse), kept if it lands on a valid
+        // root; else the full search below.
+        let g = [ct[0] - a / w_nn * wt[0], ct[1] - a / w_nn * wt[1]];
+        if g[0] != 0.0 || g[1] != 0.0 {
+            let mut th = g[1].atan2(g[0]);
+            let scale = (w_nn + mu * wt[0].hypot(wt[1])) * (ct[0].hypot(ct[1]) + a.abs());
+            // F and dF/dθ: with ŝ = (cos θ, sin θ) and ŝ⊥ = (−sin θ, cos θ),
+            // F = ŝ⊥·v and F' = −ŝ·v + ŝ⊥·(D' c_t + a μ W_tt ŝ⊥),
+            // D' = −μ w_t·ŝ⊥.
+            let f_df = |th: f64| -> (f64, f64) {
+                let (sn, co) = th.sin_cos();
+                let (_, v) = parts(th);
+                let dd = -mu * (-wt[0] * sn + wt[1] * co);
+                let mp = [
+                    -wtt[0][0] * sn + wtt[0][1] * co,
+                    -wtt[1][0] * sn + wtt[1][1] * co,
+                ];
+                let dv = [dd * ct[0] + a * mu * mp[0], dd * ct[1] + a * mu * mp[1]];
+                (
+                    -sn * v[0] + co * v[1],
+                    -(co * v[0] + sn * v[1]) + (-sn * dv[0] + co * dv[1]),
+                )
+            };
+            for _ in 0..16 {
+                let (fx, df) = f_df(th);
+                if df == 0.0 || !fx.is_finite() {
+                    break;
+                }
+                let step = (fx / df).clamp(-0.5, 0.5);
+                th -= step;
+                if step.abs() <= 1e-14 {
+                    break;
+                }
+            }
+            if f(th).abs() <= 1e-12 * scale {
+                if let Some((p, _)) = slide_at(th) {
+                    return Single {
+                        impulse: p,
+                        case: Case::Slide,
+                        ..Single::default()
+                    };
+                }
+            }
+        }
+    }
+    let mut candidates = slide_angles(&f);
+    candidates.sort_by(f64::total_cmp);
+    let mut slides: Vec<(DVec3, f64)> = Vec::new();
+    for th in candidates {
+        let Some((p, _)) = slide_at(th) else {
+            continue;
+        };
         if slides
             .iter()
             .any(|(q, _)| (*q - p).length() <= 1e-9 * p.length())
@@ -103,6 +228,7 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
             impulse: stick,
             ambiguous: count > 1,
             unsolved: false,
+            case: Case::Stick,
         };
     }
     if let Some(&(p, _)) = slides.iter().min_by(|x, y| x.1.total_cmp(&y.1)) {
@@ -110,12 +236,14 @@ pub fn single_contact(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f6
             impulse: p,
             ambiguous: count > 1,
             unsolved: false,
+            case: Case::Slide,
         };
     }
     Single {
         impulse: n * ((-cn).max(0.0) / w_nn),
         ambiguous: false,
         unsolved: true,
+        case: Case::Unsolved,
     }
 }
 
