@@ -71,6 +71,7 @@ pub fn frame<T: Real, const N: usize>(
             for m in 0..6 {
                 fr.w[i][m][s] = blocks[m];
             }
+            fr.b3[i][s] = b3(blocks, c.fr.mu[i], c.fr.b3_bound);
             let vn = fr.c0[i][0][s];
             geo.vn[i][s] = vn;
             status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
@@ -91,4 +92,27 @@ pub fn frame<T: Real, const N: usize>(
             );
         geo.status[s] = status;
     }
+    for i in 0..N {
+        fr.b3_all[i] = fr.b3[i].iter().all(|&b| b);
+    }
+}
+
+/// friction.md's certificate B3 from the Delassus block in the contact
+/// frame (nn, nt₁, nt₂, t₁t₁, t₁t₂, t₂t₂) and μ: with
+/// `S = W_tt − w_t w_tᵀ/W_nn`,
+/// `(μ/W_nn)(|w_t| + sqrt(λ_max(S) · w_tᵀ S⁻¹ w_t)) < bound`.
+#[inline(always)]
+fn b3<T: Real>(w: [T; 6], mu: T, bound: T) -> bool {
+    let [wnn, w1, w2, p, q, r] = w;
+    let inv = T::ONE / wnn;
+    let s00 = (-w1 * w1).mul_add(inv, p);
+    let s01 = (-w1 * w2).mul_add(inv, q);
+    let s11 = (-w2 * w2).mul_add(inv, r);
+    let det = s00.mul_add(s11, -(s01 * s01));
+    let half = T::HALF * (s00 - s11);
+    let lambda_max = T::HALF * (s00 + s11) + half.mul_add(half, s01 * s01).sqrt();
+    let quad = (s11 * w1).mul_add(w1, (s00 * w2).mul_add(w2, -(T::ONE + T::ONE) * s01 * w1 * w2));
+    let q_inv = (quad / det).max(T::ZERO);
+    let wt = w1.mul_add(w1, w2 * w2).sqrt();
+    (det > T::ZERO) & (s00 > T::ZERO) & ((mu * inv) * ((lambda_max * q_inv).sqrt() + wt) < bound)
 }

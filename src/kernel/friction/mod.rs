@@ -92,6 +92,10 @@ pub struct FrictionConsts<T, const N: usize> {
     gs_tol: T,
     /// Sweeps after which a block's unconverged lanes go to the reference.
     gs_max: u32,
+    /// B3's bound, 2 less a margin for the lane type's rounding.
+    b3_bound: T,
+    /// Newton steps from the certified start direction.
+    certified_steps: u32,
 }
 
 impl<T: Real, const N: usize> FrictionConsts<T, N> {
@@ -124,6 +128,8 @@ impl<T: Real, const N: usize> FrictionConsts<T, N> {
             angle_tol: T::from_f64(if f32_lanes { 1e-5 } else { 1e-12 }),
             gs_tol: T::from_f64(if f32_lanes { 2e-6 } else { 1e-13 }),
             gs_max: if f32_lanes { 64 } else { 200 },
+            b3_bound: T::from_f64(2.0 * (1.0 - if f32_lanes { 1e-3 } else { 1e-9 })),
+            certified_steps: if f32_lanes { 6 } else { 10 },
         }
     }
 }
@@ -140,6 +146,10 @@ pub struct Frame<T, const N: usize> {
     w: [[[T; BLOCK]; 6]; N],
     /// `|v| + L|ω|` before the impact.
     vscale: [T; BLOCK],
+    /// friction.md's certificate B3 per contact and lane (W and μ only, so
+    /// it holds for every visit), and whether it holds in every lane.
+    b3: [[bool; BLOCK]; N],
+    b3_all: [bool; N],
 }
 
 /// Gauss–Seidel state of one law on a block.
@@ -165,6 +175,8 @@ impl<T: Real, const N: usize> Frame<T, N> {
             c0: [[[T::ZERO; BLOCK]; 3]; N],
             w: [[[T::ZERO; BLOCK]; 6]; N],
             vscale: [T::ZERO; BLOCK],
+            b3: [[false; BLOCK]; N],
+            b3_all: [false; N],
         })
     }
 }

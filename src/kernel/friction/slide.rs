@@ -154,6 +154,10 @@ pub(super) struct Solve<T> {
     pub(super) count: [T; BLOCK],
     pub(super) dir: [[T; BLOCK]; 2],
     pub(super) roots_ok: [bool; BLOCK],
+    /// cos, sin of the certified search's start: the direction of
+    /// `c_t + (−a/W_nn) w_t`, the sliding under the frictionless normal
+    /// impulse (friction.md, after B3).
+    pub(super) start: [[T; BLOCK]; 2],
 }
 
 impl<T: Real> Solve<T> {
@@ -178,6 +182,7 @@ impl<T: Real> Solve<T> {
             count: z,
             dir: [z; 2],
             roots_ok: [false; BLOCK],
+            start: [z; 2],
         }
     }
 }
@@ -276,6 +281,73 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
             k.coef[m][s] = coef[m];
         }
         k.a[s] = a;
+        k.changes[s] = T::ZERO;
+        k.grid_ok[s] = true;
+        k.count[s] = T::ZERO;
+        k.roots_ok[s] = true;
+        k.dir[0][s] = T::ONE;
+        k.dir[1][s] = T::ZERO;
+        let ratio = -a / wnn;
+        let g = [ratio.mul_add(w1, c1), ratio.mul_add(w2, c2)];
+        let len = g[0].mul_add(g[0], g[1] * g[1]).sqrt();
+        let some = len > T::ZERO;
+        k.start[0][s] = select(some, g[0] / len, T::ONE);
+        k.start[1][s] = select(some, g[1] / len, T::ZERO);
+    }
+}
+
+/// Starts the certified search's root in slot 0: Newton's method on F from
+/// the start direction, unbracketed (B3 leaves one valid root to find; a
+/// lane that lands elsewhere, or has not converged, is caught by the
+/// judgement).
+#[inline(always)]
+pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
+    for s in 0..BLOCK {
+        let now = [k.start[0][s], k.start[1][s], T::ZERO, T::ZERO, T::ZERO, T::INFINITY];
+        for m in 0..6 {
+            k.newton[m][s] = now[m];
+        }
+        k.changes[s] = T::ONE;
+    }
+}
+
+/// One step of the certified search, capped at half a radian.
+#[inline(always)]
+pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let [cj, sj, t] = [k.newton[0][s], k.newton[1][s], k.newton[2][s]];
+        let (cs, sn) = rotate(cj, sj, t);
+        let [f, fp, ..] = sl.at(angles(cs, sn));
+        let dt = (f / fp).max(-T::HALF).min(T::HALF);
+        k.newton[2][s] = t - dt;
+        k.newton[5][s] = dt.abs();
+    }
+}
+
+/// After the certified search: a lane whose stick is valid has no valid
+/// slide root (B3), so its slide search is settled (no root, judged
+/// clear). True if every lane is decided: none approaches, clearly not
+/// sticking, without exactly one valid root judged clear. (A lane within
+/// the stick test's band is left unsure by [`finish`] whatever a search
+/// finds.)
+#[inline(always)]
+pub(super) fn certified_settle<T: Real>(k: &mut Solve<T>) -> bool {
+    let mut open = false;
+    for s in 0..BLOCK {
+        let stuck = k.stick_ok[s];
+        k.count[s] = select(stuck, T::ZERO, k.count[s]);
+        k.roots_ok[s] |= stuck;
+        let one = (k.count[s] == T::ONE) & k.roots_ok[s];
+        open |= (k.a[s] < T::ZERO) & k.stick_no[s] & !one;
+    }
+    !open
+}
+
+/// The full search after an undecided certified one: no roots yet.
+#[inline(always)]
+pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
+    for s in 0..BLOCK {
         k.changes[s] = T::ZERO;
         k.grid_ok[s] = true;
         k.count[s] = T::ZERO;

@@ -7,7 +7,10 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 use crate::kernel::friction::post::friction_post;
-use crate::kernel::friction::slide::{finish, interval, root_judge, root_start, root_step, setup};
+use crate::kernel::friction::slide::{
+    certified_settle, certified_start, certified_step, finish, interval, restart, root_judge, root_start, root_step,
+    setup,
+};
 use crate::kernel::friction::{Frame, Sweep, GRID, UNSURE};
 /// One visit of contact i in every lane (friction.md's single-contact
 /// solve, or with μ = 0 its closed form).
@@ -30,6 +33,20 @@ pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
         return;
     }
     let k = &mut sw.solve;
+    if fr.b3_all[i] {
+        // B3 in every lane: one root from the start direction, unless a
+        // lane is left undecided (then the full search below, afresh).
+        certified_start(k);
+        for _ in 0..fc.certified_steps {
+            certified_step(k);
+        }
+        root_judge(fc, fc.mu[i], i, 0, fr, k);
+        if certified_settle(k) {
+            finish::<T, N, COUPLED, true>(c, i, fr, sw);
+            return;
+        }
+        restart(k);
+    }
     for j in 0..GRID {
         interval(fc, j, k);
     }
