@@ -28,9 +28,9 @@ use glam::{DMat3, DQuat, DVec3};
 use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork};
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::kernel::{
-    approaching_bit, frame, friction_impulses, geometry, impulses, post, Consts, ContactRecord,
-    Frame, Geometry, LawOut, Sweep, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED, RECOMPUTE,
-    UNCONVERGED, UNSOLVED,
+    approaching_bit, frame, friction_impulses, geometry, impulses, post, sticking_bit, Consts,
+    ContactRecord, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
+    RECOMPUTE, UNCONVERGED, UNSOLVED,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
@@ -561,6 +561,13 @@ impl DropCtx<'_> {
             } else {
                 0.0
             };
+            // The lanes decided sticking where their precision resolves it
+            // (friction.md's threshold is 1e-9 of the velocity scale, below
+            // f32's rounding of the state after): a sticking contact's
+            // sliding is zero, not the rounding of that state.
+            if k.frictional && st & sticking_bit(j) != 0 {
+                c.sliding_after = 0.0;
+            }
         }
         strike.flags = Flags {
             energy_gain: st & ENERGY_GAIN != 0,

@@ -111,7 +111,10 @@ fn b3<T: Real>(w: [T; 6], mu: T, bound: T) -> bool {
     let det = s00.mul_add(s11, -(s01 * s01));
     let half = T::HALF * (s00 - s11);
     let lambda_max = T::HALF * (s00 + s11) + half.mul_add(half, s01 * s01).sqrt();
-    let quad = (s11 * w1).mul_add(w1, (s00 * w2).mul_add(w2, -(T::ONE + T::ONE) * s01 * w1 * w2));
+    let quad = (s11 * w1).mul_add(
+        w1,
+        (s00 * w2).mul_add(w2, -(T::ONE + T::ONE) * s01 * w1 * w2),
+    );
     let q_inv = (quad / det).max(T::ZERO);
     let wt = w1.mul_add(w1, w2 * w2).sqrt();
     (det > T::ZERO) & (s00 > T::ZERO) & ((mu * inv) * ((lambda_max * q_inv).sqrt() + wt) < bound)

@@ -303,7 +303,14 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
 #[inline(always)]
 pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
     for s in 0..BLOCK {
-        let now = [k.start[0][s], k.start[1][s], T::ZERO, T::ZERO, T::ZERO, T::INFINITY];
+        let now = [
+            k.start[0][s],
+            k.start[1][s],
+            T::ZERO,
+            T::ZERO,
+            T::ZERO,
+            T::INFINITY,
+        ];
         for m in 0..6 {
             k.newton[m][s] = now[m];
         }

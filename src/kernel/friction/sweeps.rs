@@ -6,10 +6,11 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use crate::kernel::friction::accelerate::Acceleration;
 use crate::kernel::friction::post::friction_post;
 use crate::kernel::friction::slide::{
-    certified_settle, certified_start, certified_step, finish, interval, restart, root_judge, root_start, root_step,
-    setup,
+    certified_settle, certified_start, certified_step, finish, interval, restart, root_judge,
+    root_start, root_step, setup,
 };
 use crate::kernel::friction::{Frame, Sweep, GRID, UNSURE};
 /// One visit of contact i in every lane (friction.md's single-contact
@@ -124,7 +125,13 @@ pub fn friction_impulses<T: Real, const N: usize>(
         // there.
         Law::Newton => {
             let mass = c.mass;
-            for _ in 0..c.fr.gs_max {
+            let mut acc =
+                c.fr.accelerate
+                    .then(|| Acceleration::<T, N>::new(c.fr.accelerate_period));
+            for t in 1..=c.fr.gs_max {
+                if let Some(a) = acc.as_mut() {
+                    a.before_sweep(t, sw);
+                }
                 sw.moved = [T::ZERO; BLOCK];
                 for b in sw.bits.iter_mut() {
                     *b &= !UNSURE;
@@ -135,6 +142,10 @@ pub fn friction_impulses<T: Real, const N: usize>(
                     let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];
                     unconverged[s] = still;
                     left |= still as u32;
+                }
+                if let Some(a) = acc.as_mut() {
+                    // Jumps that the sweep did not confirm are undone.
+                    left |= a.after_sweep(t, c, fr, sw, &unconverged) as u32;
                 }
                 if left == 0 {
                     break;

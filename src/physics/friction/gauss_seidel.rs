@@ -118,7 +118,7 @@ fn sweep(ct: &Contacts, p: &mut [DVec3], last: &mut [Single], plastic: bool) -> 
 }
 
 /// The most contacts a Gauss–Seidel solve takes (one per plane).
-const MAX: usize = crate::config::MAX_DROP_PLANES;
+pub(crate) const MAX: usize = crate::config::MAX_DROP_PLANES;
 
 /// Gauss–Seidel sweeps from P = 0. With `sweeps = None` it runs to the
 /// limit (no impulse moved by more than 1e-13 of the impulse scale in a
@@ -222,7 +222,7 @@ fn gauss_seidel(
 /// `ŝ_i = c⁺_t,i/|c⁺_t,i|`; Newton's method from `p`, at most 12
 /// iterations. `None` if a case is unsolved, a slide has no sliding
 /// velocity, or the system is singular.
-fn pattern_newton(
+pub(crate) fn pattern_newton(
     ct: &Contacts,
     p: &[DVec3],
     cases: &[Case],
@@ -233,9 +233,12 @@ fn pattern_newton(
     let mut x = [DVec3::ZERO; MAX];
     x[..n].copy_from_slice(p);
     let basis: Vec<(DVec3, DVec3)> = ct.normals.iter().map(|&nv| tangent_basis(nv)).collect();
+    let mut jac = [[0f64; 3 * MAX]; 3 * MAX];
+    let mut res = [0f64; 3 * MAX];
     for _ in 0..12 {
-        let mut jac = [[0f64; 3 * MAX]; 3 * MAX];
-        let mut res = [0f64; 3 * MAX];
+        for row in &mut jac[..m] {
+            row[..m].fill(0.0);
+        }
         for i in 0..n {
             let nv = ct.normals[i];
             let (t1, t2) = basis[i];
@@ -313,7 +316,9 @@ fn pattern_newton(
         if !x[..n].iter().all(|v| v.is_finite()) {
             return None;
         }
-        if size <= 1e-15 * ct.pscale {
+        // Below rounding of the impulses: Newton's next step would be
+        // noise (the confirming sweep judges the point).
+        if size <= 1e-14 * ct.pscale {
             break;
         }
     }
