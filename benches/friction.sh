@@ -30,13 +30,15 @@ for s in $(seq "$series"); do
     echo "# series $s"
     one configs/floor.toml newton f32 100000000
     one configs/floor.toml newton f32 20000000 --keep friction
-    one configs/floor_friction.toml newton f32 4000000
-    one configs/floor_friction.toml newton f64 4000000
-    one configs/floor_friction.toml paper f32 4000000
+    one configs/floor_friction.toml newton f32 40000000
+    one configs/floor_friction.toml newton f64 20000000
+    one configs/floor_friction.toml paper f32 40000000
     one configs/floor_friction.toml stronge f64 40000
     one configs/corner3.toml newton f32 100000000
+    one configs/corner3.toml newton f64 50000000
     one configs/corner3.toml newton f32 4000000 --keep friction
-    one configs/corner3_friction.toml newton f32 100000
-    one configs/corner3_friction.toml paper f32 2000000
-    one configs/corner3_friction.toml pgs8 f32 1000000
+    one configs/corner3_friction.toml newton f32 400000
+    one configs/corner3_friction.toml newton f64 200000
+    one configs/corner3_friction.toml paper f32 10000000
+    one configs/corner3_friction.toml pgs8 f32 4000000
 done
