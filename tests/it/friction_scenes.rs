@@ -121,6 +121,35 @@ fn frictional_floor_matches_the_oracle_and_is_thread_independent() {
     );
 }
 
+/// The rough corner, where the lanes take the certificate's shortcut and
+/// accelerate Gauss–Seidel (each jump decided by the lane's own data):
+/// the same summary on 1 and 2 threads, in both precisions, with nearly
+/// every lane solved in lanes.
+#[test]
+fn rough_corner_is_thread_independent() {
+    for precision in ["f32", "f64"] {
+        let s = support::edited_scene(
+            "corner3_friction",
+            &[],
+            &format!("friction-scene-corner3-threads-{precision}"),
+            &Overrides {
+                samples: Some(3 * 4096),
+                precision: Some(precision.parse().unwrap()),
+                ..Overrides::default()
+            },
+        )
+        .unwrap();
+        let (one, two) = (summary(&s, 1), summary(&s, 2));
+        assert_eq!(
+            serde_json::to_value(&one.laws).unwrap(),
+            serde_json::to_value(&two.laws).unwrap(),
+            "{precision}: 1 and 2 threads differ"
+        );
+        let recomputed = two.all_group("newton").unwrap().fractions["recomputed_f64"];
+        assert!(recomputed < 0.1, "{precision}: recomputed {recomputed}");
+    }
+}
+
 #[test]
 fn laws_that_friction_rules_out_are_refused() {
     let rough = ("restitution = 0.8\n", "restitution = 0.8\nfriction = 0.3\n");
