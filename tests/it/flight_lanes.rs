@@ -8,19 +8,7 @@ use impactmc::lanes::dispatch::BLOCK;
 use impactmc::lanes::Real;
 use impactmc::physics::TorqueFree;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.next().max(1e-300), self.next());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
+use crate::support::Rng;
 
 /// A block of random motions and times: (motion, time) per lane.
 fn block(rng: &mut Rng) -> Vec<(TorqueFree, f64)> {

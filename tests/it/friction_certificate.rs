@@ -9,6 +9,7 @@
 //!   μ ≥ 0.5.
 
 use crate::support;
+use crate::support::Rng;
 
 use glam::{DMat3, DQuat, DVec3};
 use impactmc::physics::friction::{
@@ -16,23 +17,6 @@ use impactmc::physics::friction::{
 };
 use impactmc::physics::{ContactGeometry, Ellipsoid};
 use impactmc::sampler::Sampler;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.next().max(1e-300), self.next());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-    fn unit(&mut self) -> DVec3 {
-        DVec3::new(self.normal(), self.normal(), self.normal()).normalize()
-    }
-}
 
 /// One random single contact: the Delassus block at the point of a random
 /// body that touches a plane of random normal, a free contact velocity,

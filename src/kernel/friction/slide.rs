@@ -281,12 +281,7 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
             k.coef[m][s] = coef[m];
         }
         k.a[s] = a;
-        k.changes[s] = T::ZERO;
-        k.grid_ok[s] = true;
-        k.count[s] = T::ZERO;
-        k.roots_ok[s] = true;
-        k.dir[0][s] = T::ONE;
-        k.dir[1][s] = T::ZERO;
+        no_roots_yet(k, s);
         let ratio = -a / wnn;
         let g = [ratio.mul_add(w1, c1), ratio.mul_add(w2, c2)];
         let len = g[0].mul_add(g[0], g[1] * g[1]).sqrt();
@@ -351,16 +346,22 @@ pub(super) fn certified_settle<T: Real>(k: &mut Solve<T>) -> bool {
     !open
 }
 
+/// Lane s before a search: no sign changes, no roots, nothing uncertain.
+#[inline(always)]
+fn no_roots_yet<T: Real>(k: &mut Solve<T>, s: usize) {
+    k.changes[s] = T::ZERO;
+    k.grid_ok[s] = true;
+    k.count[s] = T::ZERO;
+    k.roots_ok[s] = true;
+    k.dir[0][s] = T::ONE;
+    k.dir[1][s] = T::ZERO;
+}
+
 /// The full search after an undecided certified one: no roots yet.
 #[inline(always)]
 pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
     for s in 0..BLOCK {
-        k.changes[s] = T::ZERO;
-        k.grid_ok[s] = true;
-        k.count[s] = T::ZERO;
-        k.roots_ok[s] = true;
-        k.dir[0][s] = T::ONE;
-        k.dir[1][s] = T::ZERO;
+        no_roots_yet(k, s);
     }
 }
 

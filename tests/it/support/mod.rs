@@ -203,3 +203,25 @@ pub fn strings(batches: &[arrow_array::RecordBatch], name: &str) -> Vec<String> 
         })
         .collect()
 }
+
+/// A small xorshift generator for property tests that need many draws
+/// cheaply: uniforms in [0, 1), standard normals, unit vectors.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub fn normal(&mut self) -> f64 {
+        let (u, v) = (self.next().max(1e-300), self.next());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+
+    pub fn unit(&mut self) -> glam::DVec3 {
+        glam::DVec3::new(self.normal(), self.normal(), self.normal()).normalize()
+    }
+}
