@@ -11,9 +11,11 @@
 //!
 //! What goes to the f64 reference, and is counted: flights that are not
 //! closed-form in lanes (an axisymmetric body, a steady or near-separatrix
-//! spin, RK4 asked for), searches that spend their step budget, and
-//! impacts the kernel flags (its own fallback rules), that touch more than
-//! three planes or penetrate one.
+//! spin, RK4 asked for), searches that spend their step budget, impacts
+//! the kernel flags (its own fallback rules), that touch more than three
+//! planes or penetrate one, and in f32 a walk from its first touch without
+//! approach on (the flight flown again from its start: [`Wave`]'s
+//! `coarse`).
 //!
 //! Which lane a walk lands in never changes its result: its flights and
 //! impacts depend only on its own state, and it is recorded in its own log
