@@ -78,6 +78,20 @@ impl<T: Real> Slide<T> {
         ]
     }
 
+    /// F and F′ alone (the first two of [`Slide::at`], computed alike).
+    #[inline(always)]
+    fn f_fp(&self, g: [T; 4]) -> [T; 2] {
+        let Self {
+            a0, a1, b1, a2, b2, ..
+        } = *self;
+        let [cs, sn, c2t, s2t] = g;
+        let two = T::ONE + T::ONE;
+        [
+            b2.mul_add(s2t, a2.mul_add(c2t, b1.mul_add(sn, a1.mul_add(cs, a0)))),
+            (two * b2).mul_add(c2t, (-two * a2).mul_add(s2t, b1.mul_add(cs, -(a1 * sn)))),
+        ]
+    }
+
     /// N at the angle with (cos θ, sin θ, cos 2θ, sin 2θ) = `g`.
     #[inline(always)]
     fn numerator(&self, g: [T; 4]) -> T {
@@ -256,12 +270,6 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
         k.stick_no[s] = f_stick >= limit * (T::ONE + fc.stick_band);
         let sl = Slide::new(mu, [c1, c2], a, w);
         let coef = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
-        let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
-        let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
-        // |F⁽ᵏ⁾| ≤ |c₁| + 2ᵏ|c₂| for a degree-2 polynomial's amplitudes.
-        k.l3[s] = T::from_f64(8.0).mul_add(f2, f1);
-        k.l4[s] = T::from_f64(16.0).mul_add(f2, f1);
-        k.l5[s] = T::from_f64(32.0).mul_add(f2, f1);
         // Margins: values within rounding (and, in f32, within the inputs'
         // own rounding) of zero decide nothing.
         let (mw1, mw2) = (mu * w1, mu * w2);
@@ -270,12 +278,8 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
             + a.abs() * ((w1.abs() + w2.abs()) + mu * (pp.abs() + q.abs() + r.abs()));
         k.m_f[s] = fc.round * mag;
         k.m_d[s] = fc.round * (wnn + ld);
-        let left = sl.at(fc.grid[0]);
         for m in 0..3 {
             k.stick[m][s] = stick[m];
-        }
-        for m in 0..5 {
-            k.left[m][s] = left[m];
         }
         for m in 0..6 {
             k.coef[m][s] = coef[m];
@@ -320,7 +324,7 @@ pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
         let sl = slide_of(k, s);
         let [cj, sj, t] = [k.newton[0][s], k.newton[1][s], k.newton[2][s]];
         let (cs, sn) = rotate(cj, sj, t);
-        let [f, fp, ..] = sl.at(angles(cs, sn));
+        let [f, fp] = sl.f_fp(angles(cs, sn));
         let dt = (f / fp).max(-T::HALF).min(T::HALF);
         k.newton[2][s] = t - dt;
         k.newton[5][s] = dt.abs();
@@ -362,6 +366,26 @@ fn no_roots_yet<T: Real>(k: &mut Solve<T>, s: usize) {
 pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
     for s in 0..BLOCK {
         no_roots_yet(k, s);
+    }
+}
+
+/// Before the grid search of every lane: the bounds on F's higher
+/// derivatives and F at the grid's start (the certified search needs
+/// neither).
+#[inline(always)]
+pub(super) fn grid_setup<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, k: &mut Solve<T>) {
+    for s in 0..BLOCK {
+        let sl = slide_of(k, s);
+        let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
+        let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
+        // |F⁽ᵏ⁾| ≤ |c₁| + 2ᵏ|c₂| for a degree-2 polynomial's amplitudes.
+        k.l3[s] = T::from_f64(8.0).mul_add(f2, f1);
+        k.l4[s] = T::from_f64(16.0).mul_add(f2, f1);
+        k.l5[s] = T::from_f64(32.0).mul_add(f2, f1);
+        let left = sl.at(fc.grid[0]);
+        for m in 0..5 {
+            k.left[m][s] = left[m];
+        }
     }
 }
 

@@ -9,8 +9,8 @@
 use crate::kernel::friction::accelerate::Acceleration;
 use crate::kernel::friction::post::friction_post;
 use crate::kernel::friction::slide::{
-    certified_settle, certified_start, certified_step, finish, interval, restart, root_judge,
-    root_start, root_step, setup,
+    certified_settle, certified_start, certified_step, finish, grid_setup, interval, restart,
+    root_judge, root_start, root_step, setup,
 };
 use crate::kernel::friction::{Frame, Sweep, GRID, UNSURE};
 /// One visit of contact i in every lane (friction.md's single-contact
@@ -48,6 +48,7 @@ pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
         }
         restart(k);
     }
+    grid_setup(fc, k);
     for j in 0..GRID {
         interval(fc, j, k);
     }
