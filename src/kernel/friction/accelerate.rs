@@ -25,7 +25,7 @@ use crate::kernel::friction::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT};
 use crate::kernel::Consts;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::friction::{pattern_newton, Case, Contacts};
+use crate::physics::friction::{guard_passes, outer, pattern_newton, Case, Contacts};
 
 /// A lane's iterate before a jump.
 struct Saved<T, const N: usize> {
@@ -195,17 +195,9 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
             .map(|i| world(i, std::array::from_fn(|d| f(sw.p[i][d][s]))))
             .collect();
         let x = pattern_newton(&ct, &p, cases, false)?;
-        // The guard: within a quarter of the extrapolation's length of the
-        // extrapolated point.
-        let g = r / (1.0 - r);
-        let (mut step, mut off) = (0f64, 0f64);
-        for i in 0..N {
-            let prev = world(i, std::array::from_fn(|d| f(self.before[i][d][s])));
-            let dp = p[i] - prev;
-            step += dp.length_squared();
-            off += (x[i] - (p[i] + dp * g)).length_squared();
-        }
-        if !(off.sqrt() <= 0.25 * step.sqrt() * g) {
+        let previous: [DVec3; N] =
+            std::array::from_fn(|i| world(i, std::array::from_fn(|d| f(self.before[i][d][s]))));
+        if !guard_passes(&p, &previous, &x[..N], r) {
             return None;
         }
         let saved = Saved {
@@ -233,9 +225,4 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
         sw.bits[s] |= ((1u32 << N) - 1) << MOVED_SHIFT;
         Some(saved)
     }
-}
-
-/// `a bᵀ`.
-fn outer(a: DVec3, b: DVec3) -> DMat3 {
-    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }

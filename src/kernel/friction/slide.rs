@@ -56,16 +56,15 @@ impl<T: Real> Slide<T> {
     /// = `g`.
     #[inline(always)]
     fn at(&self, g: [T; 4]) -> [T; 5] {
-        let Self {
-            a0, a1, b1, a2, b2, ..
-        } = *self;
+        let Self { a1, b1, a2, b2, .. } = *self;
         let [cs, sn, c2t, s2t] = g;
+        let [f, fp] = self.f_fp(g);
         let two = T::ONE + T::ONE;
         let four = two + two;
         let eight = four + four;
         [
-            b2.mul_add(s2t, a2.mul_add(c2t, b1.mul_add(sn, a1.mul_add(cs, a0)))),
-            (two * b2).mul_add(c2t, (-two * a2).mul_add(s2t, b1.mul_add(cs, -(a1 * sn)))),
+            f,
+            fp,
             (-four * b2).mul_add(
                 s2t,
                 (-four * a2).mul_add(c2t, (-b1).mul_add(sn, -(a1 * cs))),

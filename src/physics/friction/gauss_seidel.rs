@@ -117,7 +117,8 @@ fn sweep(ct: &Contacts, p: &mut [DVec3], last: &mut [Single], plastic: bool) -> 
     moved
 }
 
-/// The most contacts a Gauss–Seidel solve takes (one per plane).
+/// Contacts a Gauss–Seidel solve keeps on the stack (every scene's; a
+/// solved case with more planes uses the heap and is not accelerated).
 pub(crate) const MAX: usize = crate::config::MAX_DROP_PLANES;
 
 /// Gauss–Seidel sweeps from P = 0. With `sweeps = None` it runs to the
@@ -180,17 +181,7 @@ fn gauss_seidel(
         let Some(x) = pattern_newton(ct, p, &cases[..n], plastic) else {
             continue;
         };
-        // The guard: within a quarter of the extrapolation's length of the
-        // extrapolated point P + ΔP r/(1 − r).
-        let g = r / (1.0 - r);
-        let (mut step, mut off) = (0f64, 0f64);
-        for i in 0..n {
-            let dp = p[i] - previous[i];
-            step += dp.length_squared();
-            off += (x[i] - (p[i] + dp * g)).length_squared();
-        }
-        let d = step.sqrt() * g;
-        if !(off.sqrt() <= 0.25 * d) {
+        if !guard_passes(p, &previous[..n], &x[..n], r) {
             continue;
         }
         // One confirming sweep from the Newton point.
@@ -232,7 +223,10 @@ pub(crate) fn pattern_newton(
     let m = 3 * n;
     let mut x = [DVec3::ZERO; MAX];
     x[..n].copy_from_slice(p);
-    let basis: Vec<(DVec3, DVec3)> = ct.normals.iter().map(|&nv| tangent_basis(nv)).collect();
+    let mut basis = [(DVec3::ZERO, DVec3::ZERO); MAX];
+    for (b, &nv) in basis.iter_mut().zip(&ct.normals) {
+        *b = tangent_basis(nv);
+    }
     let mut jac = [[0f64; 3 * MAX]; 3 * MAX];
     let mut res = [0f64; 3 * MAX];
     for _ in 0..12 {
@@ -325,8 +319,23 @@ pub(crate) fn pattern_newton(
     Some(x)
 }
 
+/// friction.md's guard on an accelerated step: the Newton point `x` lies
+/// within a quarter of the extrapolation's length `d = |ΔP| r/(1 − r)` of
+/// the extrapolated point `P + ΔP r/(1 − r)`, where `ΔP = p − previous` is
+/// the last sweep's step (over all contacts) and `r` its rate.
+pub(crate) fn guard_passes(p: &[DVec3], previous: &[DVec3], x: &[DVec3], r: f64) -> bool {
+    let g = r / (1.0 - r);
+    let (mut step, mut off) = (0f64, 0f64);
+    for ((pi, prev), xi) in p.iter().zip(previous).zip(x) {
+        let dp = *pi - *prev;
+        step += dp.length_squared();
+        off += (*xi - (*pi + dp * g)).length_squared();
+    }
+    off.sqrt() <= 0.25 * step.sqrt() * g
+}
+
 /// `a bᵀ`.
-fn outer(a: DVec3, b: DVec3) -> DMat3 {
+pub(crate) fn outer(a: DVec3, b: DVec3) -> DMat3 {
     DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
