@@ -142,9 +142,9 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
         let (_, v) = parts(th);
         -s * v[0] + co * v[1]
     };
-    // The slide root that a valid angle `th` gives: (P, s), if D > 0 and
-    // s is beyond the stick solution's own.
-    let slide_at = |th: f64| -> Option<(DVec3, f64)> {
+    // The slide impulse at angle `th`, if the root there is valid: D > 0
+    // and a sliding speed s beyond the stick solution's own.
+    let slide_at = |th: f64| -> Option<DVec3> {
         let (d, v) = parts(th);
         if !(d > 0.0) {
             return None;
@@ -156,7 +156,7 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
             return None;
         }
         let dir = t1 * co + t2 * s;
-        Some((-a / d * (n - mu * dir), speed))
+        Some(-a / d * (n - mu * dir))
     };
     if certain {
         // Exactly one valid slide root: Newton's method on F from the
@@ -196,7 +196,7 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
                 }
             }
             if f(th).abs() <= 1e-12 * scale {
-                if let Some((p, _)) = slide_at(th) {
+                if let Some(p) = slide_at(th) {
                     return Single {
                         impulse: p,
                         case: Case::Slide,
@@ -210,7 +210,7 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
     candidates.sort_by(f64::total_cmp);
     let mut slides: Vec<(DVec3, f64)> = Vec::new();
     for th in candidates {
-        let Some((p, _)) = slide_at(th) else {
+        let Some(p) = slide_at(th) else {
             continue;
         };
         if slides
