@@ -520,7 +520,7 @@ impl DropCtx<'_> {
                     law,
                     &k.inputs,
                     &k.geo,
-                    &k.frame,
+                    &mut k.frame,
                     &mut k.sweep,
                     &mut k.out,
                 );
@@ -694,7 +694,7 @@ multiversioned! {
         law: Law,
         inputs: &Inputs<T>,
         geo: &Geometry<T, K>,
-        fr: &Frame<T, K>,
+        fr: &mut Frame<T, K>,
         sweep: &mut Sweep<T, K>,
         out: &mut LawOut<T, K>,
     ) {

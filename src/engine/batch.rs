@@ -112,7 +112,7 @@ multiversioned! {
         law: Law,
         inputs: &Inputs<T>,
         geo: &Geometry<T, N>,
-        fr: &Frame<T, N>,
+        fr: &mut Frame<T, N>,
         sweep: &mut Sweep<T, N>,
         out: &mut LawOut<T, N>,
     ) {

@@ -60,6 +60,21 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
         }
     }
 
+    /// A jump awaits its confirming sweep.
+    pub(super) fn pending(&self) -> bool {
+        !self.jumped.is_empty()
+    }
+
+    /// Moves the per-lane state with the lanes (see `compact`).
+    pub(super) fn gather(
+        &mut self,
+        mut cases: impl FnMut(&mut [[Case; N]; BLOCK]),
+        mut moved: impl FnMut(&mut [f64; BLOCK]),
+    ) {
+        cases(&mut self.cases);
+        moved(&mut self.moved);
+    }
+
     /// Before sweep `t` (from 1): the impulses, if `t` is a check.
     pub(super) fn before_sweep(&mut self, t: u32, sw: &Sweep<T, N>) {
         if t % self.period == 0 {
@@ -99,7 +114,7 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
         if t % self.period != 0 {
             return undone;
         }
-        for s in 0..BLOCK {
+        for s in 0..sw.solve.len.min(BLOCK) {
             if !unconverged[s] {
                 continue;
             }

@@ -171,6 +171,9 @@ pub(super) struct Solve<T> {
     /// `c_t + (−a/W_nn) w_t`, the sliding under the frictionless normal
     /// impulse (friction.md, after B3).
     pub(super) start: [[T; BLOCK]; 2],
+    /// The lanes every pass runs over: the block, or after compaction its
+    /// first `len` positions (a multiple of the vector width).
+    pub(super) len: usize,
 }
 
 impl<T: Real> Solve<T> {
@@ -196,6 +199,7 @@ impl<T: Real> Solve<T> {
             dir: [z; 2],
             roots_ok: [false; BLOCK],
             start: [z; 2],
+            len: BLOCK,
         }
     }
 }
@@ -225,7 +229,7 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
         p, dv, dw, solve, ..
     } = sw;
     let k = &mut *solve;
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let w = w_of(fr, i, s);
         let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
         if COUPLED {
@@ -300,7 +304,7 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
 /// judgement).
 #[inline(always)]
 pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let now = [
             k.start[0][s],
             k.start[1][s],
@@ -319,7 +323,7 @@ pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
 /// One step of the certified search, capped at half a radian.
 #[inline(always)]
 pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let sl = slide_of(k, s);
         let [cj, sj, t] = [k.newton[0][s], k.newton[1][s], k.newton[2][s]];
         let (cs, sn) = rotate(cj, sj, t);
@@ -339,7 +343,7 @@ pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
 #[inline(always)]
 pub(super) fn certified_settle<T: Real>(k: &mut Solve<T>) -> bool {
     let mut open = false;
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let stuck = k.stick_ok[s];
         k.count[s] = select(stuck, T::ZERO, k.count[s]);
         k.roots_ok[s] |= stuck;
@@ -363,7 +367,7 @@ fn no_roots_yet<T: Real>(k: &mut Solve<T>, s: usize) {
 /// The full search after an undecided certified one: no roots yet.
 #[inline(always)]
 pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         no_roots_yet(k, s);
     }
 }
@@ -373,7 +377,7 @@ pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
 /// neither).
 #[inline(always)]
 pub(super) fn grid_setup<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, k: &mut Solve<T>) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let sl = slide_of(k, s);
         let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
         let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
@@ -411,7 +415,7 @@ pub(super) fn interval<T: Real, const N: usize>(
 ) {
     let index = T::from_f64(j as f64);
     let g = fc.grid[j + 1];
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let sl = slide_of(k, s);
         let right = sl.at(g);
         let [f0, fp0, fpp0, fppp0, f40] = std::array::from_fn(|m| k.left[m][s]);
@@ -456,7 +460,7 @@ pub(super) fn root_start<T: Real, const N: usize>(
     k: &mut Solve<T>,
 ) {
     let per_turn = T::from_f64(1.0 / GRID as f64);
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let used = k.changes[s] > T::from_f64(n as f64);
         let j = select(used, k.slot[n][0][s], T::ZERO);
         let (sn, cs) = (j * per_turn).sin_cos_2pi();
@@ -486,7 +490,7 @@ pub(super) fn angles<T: Real>(cs: T, sn: T) -> [T; 4] {
 /// step that leaves it is replaced by bisection.
 #[inline(always)]
 pub(super) fn root_step<T: Real>(n: usize, k: &mut Solve<T>) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let sl = slide_of(k, s);
         let [cj, sj, t, lo, hi, _] = std::array::from_fn(|m| k.newton[m][s]);
         let up = k.slot[n][2][s] > k.slot[n][1][s];
@@ -515,7 +519,7 @@ pub(super) fn root_judge<T: Real, const N: usize>(
     fr: &Frame<T, N>,
     k: &mut Solve<T>,
 ) {
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let sl = slide_of(k, s);
         let used = k.changes[s] > T::from_f64(n as f64);
         let [cj, sj, t, _, _, step] = std::array::from_fn(|m| k.newton[m][s]);
@@ -559,9 +563,10 @@ pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: 
         moved,
         bits,
         solve,
+        ..
     } = sw;
     let k = &*solve;
-    for s in 0..BLOCK {
+    for s in 0..k.len.min(BLOCK) {
         let a = k.a[s];
         let w = w_of(fr, i, s);
         let approaching = a < T::ZERO;

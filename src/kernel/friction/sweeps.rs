@@ -56,7 +56,9 @@ pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
     for n in 0..4 {
         // Blocks where no lane has this many roots skip it (no lane's
         // answer changes).
-        let used = k.changes.iter().any(|&x| x > T::from_f64(n as f64));
+        let used = k.changes[..k.len.min(BLOCK)]
+            .iter()
+            .any(|&x| x > T::from_f64(n as f64));
         if !used {
             break;
         }
@@ -90,7 +92,7 @@ pub fn friction_impulses<T: Real, const N: usize>(
     law: Law,
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
-    fr: &Frame<T, N>,
+    fr: &mut Frame<T, N>,
     sw: &mut Sweep<T, N>,
     out: &mut LawOut<T, N>,
 ) {
@@ -123,12 +125,17 @@ pub fn friction_impulses<T: Real, const N: usize>(
         // certificate must vouch for: a lane is kept when every visit of its
         // last sweep was certain and that sweep moved nothing, so that its
         // impulses satisfy every contact's law; earlier visits only lead
-        // there.
+        // there. Each lane stops at its own first such sweep, and the lanes
+        // still sweeping are compacted into as few vectors as hold them
+        // (`compact::Queue`), so that a block does not sweep at full width for its
+        // slowest lanes.
         Law::Newton => {
             let mass = c.mass;
             let mut acc =
                 c.fr.accelerate
                     .then(|| Acceleration::<T, N>::new(c.fr.accelerate_period));
+            let mut queue = sw.queue.take().expect("the sweep's queue is in place");
+            queue.start(fr);
             for t in 1..=c.fr.gs_max {
                 if let Some(a) = acc.as_mut() {
                     a.before_sweep(t, sw);
@@ -139,7 +146,7 @@ pub fn friction_impulses<T: Real, const N: usize>(
                 }
                 sweep::<T, N, true>(c, fr, sw);
                 let mut left = 0u32;
-                for s in 0..BLOCK {
+                for s in 0..sw.solve.len.min(BLOCK) {
                     let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];
                     unconverged[s] = still;
                     left |= still as u32;
@@ -148,10 +155,14 @@ pub fn friction_impulses<T: Real, const N: usize>(
                     // Jumps that the sweep did not confirm are undone.
                     left |= a.after_sweep(t, c, fr, sw, &unconverged) as u32;
                 }
+                queue.settle(sw, &unconverged);
                 if left == 0 {
                     break;
                 }
+                queue.compact(fr, sw, acc.as_mut(), &mut unconverged);
             }
+            queue.finish(fr, sw, &mut unconverged);
+            sw.queue = Some(queue);
         }
         Law::Poisson => unreachable!("poisson with friction is refused by the scene"),
     }
