@@ -21,6 +21,7 @@ rows=(
     "\`drop_corner\`, first impact only (\`bounces = 1\`)|$out/drop_corner_1.toml|newton|f32|2000000|"
     "\`floor_friction\`, μ = 0.5|configs/floor_friction.toml|newton|f32|40000000|"
     "S3 \`corner3_friction\`, μ = 0.3 on every wall|configs/corner3_friction.toml|newton|f32|400000|"
+    "S3 \`corner3_friction\`, μ = 0.3 on every wall|configs/corner3_friction.toml|newton|f64|400000|"
     "S3 \`corner3\` with \`--per-sample\` (every column; rows/s, whole command)|configs/corner3.toml|newton|f32|4000000|--per-sample"
 )
 

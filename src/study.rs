@@ -9,14 +9,15 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
+use polars::prelude::{DataFrame, PolarsError};
 use serde_json::json;
 
-use crate::config::sweep::{plan, Axis};
+use crate::config::sweep::{plan_text, Axis};
 use crate::config::RawScene;
-use crate::config::{Overrides, Scene, SceneError};
+use crate::config::{Overrides, Precision, Scene, SceneError, SceneText};
 use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
-use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
+use crate::output::parquet::{ArrowTable, Compression, MemoryRows, SamplesWriter, WriteOptions};
 use crate::output::plots::run_plots;
 use crate::output::samples::{SampleRows, Selection};
 use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
@@ -62,7 +63,44 @@ pub struct Study {
     pub shard: Option<Shard>,
     /// Set for a merge of shards.
     pub merge: Option<MergeInfo>,
-    staging: Staging,
+    /// The per-sample rows of a run without an output folder, when asked
+    /// for.
+    pub samples: Option<ArrowTable>,
+    /// The run folder, and its staging area until it is written; none for
+    /// a run kept in memory.
+    folder: Option<PathBuf>,
+    staging: Option<Staging>,
+}
+
+/// Where a study's per-sample rows go.
+enum Rows {
+    File(SamplesWriter, Precision),
+    Memory(MemoryRows),
+}
+
+impl Rows {
+    fn float_mask(&self) -> Vec<bool> {
+        match self {
+            Rows::File(w, _) => w.float_mask().to_vec(),
+            Rows::Memory(m) => m.float_mask().to_vec(),
+        }
+    }
+}
+
+/// An error's message with its chain of causes (`a: b: c`), each once: the
+/// words every front end prints.
+pub fn message_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(c) = source {
+        let m = c.to_string();
+        if !s.contains(&m) {
+            s.push_str(": ");
+            s.push_str(&m);
+        }
+        source = c.source();
+    }
+    s
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -77,27 +115,39 @@ pub enum StudyError {
     Merge(#[from] MergeError),
 }
 
+impl StudyError {
+    /// Bad input (the scene, the shards to merge, an output folder that
+    /// holds a run), as opposed to a failure while running or writing.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            StudyError::Scene(_)
+                | StudyError::Merge(_)
+                | StudyError::Output(OutputError::Exists(_))
+        )
+    }
+}
+
 /// Validates every grid point and the per-sample columns first (so bad
 /// input fails before any work), then runs the points in order, streaming
 /// per-sample rows into the staging area of `dir` when the scene asks for
-/// them.
+/// them. Without `dir` nothing is written: the rows stay in memory
+/// ([`Study::samples`]) and [`Study::write`] refuses.
 pub fn run_study(
-    path: &Path,
+    src: &SceneText,
     overrides: &Overrides,
     opts: &RunOptions,
-    dir: &Path,
+    dir: Option<&Path>,
 ) -> Result<Study, StudyError> {
-    let (axes, points) = plan(path, overrides)?;
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(&file, &e))?;
-    let mut raw = Scene::parse(&file, &text)?;
-    overrides.apply(&mut raw);
-    let mut staging = Staging::new(dir);
+    let (axes, points) = plan_text(src, overrides)?;
+    let (file, text) = (&src.file, &src.text);
+    let mut raw = src.raw(overrides)?;
+    let mut staging = dir.map(Staging::new);
     // Every default explicit in the manifest.
     let output = raw.output.get_or_insert_with(Default::default);
     let field_error = |field: &str, message: String| SceneError {
         file: file.clone(),
-        line: crate::config::line_of(&text, &["output", field]),
+        line: crate::config::line_of(text, &["output", field]),
         field: format!("output.{field}"),
         message,
     };
@@ -106,6 +156,7 @@ pub fn run_study(
     output.compression = Some(compression.name().into());
     output.level = compression.level();
     let output = output.clone();
+    let sink_error = |e: Box<dyn std::error::Error + Send + Sync>| RunError::Sink(e);
     let mut writer = if output.per_sample {
         let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
             .map_err(|m| field_error("columns", m))?;
@@ -114,55 +165,70 @@ pub fn run_study(
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             n => n,
         };
-        staging.create("samples.parquet")?;
-        let path = staging
-            .temporary("samples.parquet")
-            .expect("just created")
-            .to_path_buf();
-        let w = SamplesWriter::new(
-            &path,
-            selection,
-            WriteOptions {
-                compression,
-                threads,
-                sweep: !axes.is_empty(),
-            },
-        )
-        .map_err(|e| RunError::Sink(Box::new(e)))?;
-        Some((w, precision))
+        let sweep = !axes.is_empty();
+        Some(match staging.as_mut() {
+            None => Rows::Memory(MemoryRows::new(selection, sweep)),
+            Some(staging) => {
+                staging.create("samples.parquet")?;
+                let path = staging
+                    .temporary("samples.parquet")
+                    .expect("just created")
+                    .to_path_buf();
+                let w = SamplesWriter::new(
+                    &path,
+                    selection,
+                    WriteOptions {
+                        compression,
+                        threads,
+                        sweep,
+                    },
+                )
+                .map_err(|e| sink_error(Box::new(e)))?;
+                Rows::File(w, precision)
+            }
+        })
     } else {
         None
     };
-    // The engine computes only the float columns the file keeps.
+    // The engine computes only the float columns the rows keep.
     let opts = &RunOptions {
-        sample_floats: writer.as_ref().map(|(w, _)| w.float_mask().to_vec()),
+        sample_floats: writer.as_ref().map(Rows::float_mask),
         ..opts.clone()
     };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();
     for (i, p) in points.into_iter().enumerate() {
+        let point = sweep.then_some(i as u32);
         let result = match writer.as_mut() {
             None => run_with_samples(&p.scene, opts, None)?,
-            Some((w, _)) => {
-                w.set_point(sweep.then_some(i as u32))
-                    .map_err(|e| RunError::Sink(Box::new(e)))?;
+            Some(Rows::File(w, _)) => {
+                w.set_point(point).map_err(|e| sink_error(Box::new(e)))?;
                 let mut sink = |rows: SampleRows| w.push(rows).map_err(SinkError::from);
+                run_with_samples(&p.scene, opts, Some(&mut sink))?
+            }
+            Some(Rows::Memory(m)) => {
+                m.set_point(point);
+                let mut sink = |rows: SampleRows| m.push(rows).map_err(SinkError::from);
                 run_with_samples(&p.scene, opts, Some(&mut sink))?
             }
         };
         runs.push(PointRun::new(p.values, p.scene, result));
     }
-    let per_sample = match writer {
-        Some((w, precision)) => Some(PerSample {
-            rows: w.finish().map_err(|e| RunError::Sink(Box::new(e)))?,
-            floats: precision.name(),
-            float_encoding: crate::output::parquet::FLOAT_ENCODING,
-            compression: compression.name(),
-            level: compression.level(),
-            row_group_rows: crate::output::parquet::ROW_GROUP,
-        }),
-        None => None,
+    let (per_sample, samples) = match writer {
+        Some(Rows::File(w, precision)) => (
+            Some(PerSample {
+                rows: w.finish().map_err(|e| sink_error(Box::new(e)))?,
+                floats: precision.name(),
+                float_encoding: crate::output::parquet::FLOAT_ENCODING,
+                compression: compression.name(),
+                level: compression.level(),
+                row_group_rows: crate::output::parquet::ROW_GROUP,
+            }),
+            None,
+        ),
+        Some(Rows::Memory(m)) => (None, Some(m.finish())),
+        None => (None, None),
     };
     Ok(Study {
         raw,
@@ -173,6 +239,8 @@ pub fn run_study(
         per_sample,
         shard: opts.shard,
         merge: None,
+        samples,
+        folder: dir.map(Path::to_path_buf),
         staging,
     })
 }
@@ -183,15 +251,13 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
     let started = SystemTime::now();
     let checked = check(dirs, allow_partial)?;
     let first = &checked.shards[0];
-    let scene_path = first.dir.join("scene.toml");
-    let file = scene_path.display().to_string();
-    let text = std::fs::read_to_string(&scene_path).map_err(|e| SceneError::io(&file, &e))?;
-    let mut raw = Scene::parse(&file, &text)?;
+    let src = SceneText::read(&first.dir.join("scene.toml"))?;
+    let mut raw = src.raw(&Overrides::default())?;
     // A merge writes summaries only; per-sample rows stay in the shards.
     if let Some(o) = raw.output.as_mut() {
         o.per_sample = false;
     }
-    let (axes, points) = plan(&scene_path, &Overrides::default())?;
+    let (axes, points) = plan_text(&src, &Overrides::default())?;
     if points.len() != first.info.points {
         return Err(MergeError::State {
             path: first.dir.join("shard.json").display().to_string(),
@@ -252,7 +318,9 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
         per_sample: None,
         shard: None,
         merge: Some(merge),
-        staging: Staging::new(dir),
+        samples: None,
+        folder: Some(dir.to_path_buf()),
+        staging: Some(Staging::new(dir)),
     })
 }
 
@@ -347,30 +415,24 @@ impl Study {
         s
     }
 
-    /// Writes the run folder: summary.parquet, histograms.parquet,
-    /// summary.json, samples.parquet (already streamed) and manifest.json
-    /// (last), all renamed together.
-    pub fn write(mut self) -> Result<Vec<PathBuf>, OutputError> {
-        let dir = self.staging.dir().to_path_buf();
-        let mut staging = std::mem::replace(&mut self.staging, Staging::new(&dir));
-        let dir = dir.as_path();
-        let first = &self.points[0].summary;
+    /// The run folder, if the study has one.
+    pub fn dir(&self) -> Option<&Path> {
+        self.folder.as_deref()
+    }
+
+    /// The run's tables, as the run folder's Parquet files hold them, by
+    /// file name: `summary.parquet`, `histograms.parquet` and, for a drop
+    /// scene, its bounce and ending tables. The error names the table.
+    pub fn tables(&self) -> Result<Vec<(&'static str, DataFrame)>, (&'static str, PolarsError)> {
         let summaries: Vec<(Vec<(String, f64)>, &Summary)> = self
             .points
             .iter()
             .map(|p| (p.values.clone(), &p.summary))
             .collect();
-        let err = |path: &str| {
-            let path = dir.join(path).display().to_string();
-            move |source| OutputError::Parquet { path, source }
-        };
-        let mut df = summary_frame(&summaries).map_err(err("summary.parquet"))?;
-        write_parquet(
-            &mut staging,
+        let mut tables = vec![(
             "summary.parquet",
-            &mut df,
-            crate::output::table_metadata(first),
-        )?;
+            summary_frame(&summaries).map_err(|e| ("summary.parquet", e))?,
+        )];
         let hists: Vec<_> = self
             .points
             .iter()
@@ -385,14 +447,10 @@ impl Study {
                 (p.values.clone(), laws)
             })
             .collect();
-        let mut df = histograms_frame(&hists).map_err(err("histograms.parquet"))?;
-        write_parquet(
-            &mut staging,
+        tables.push((
             "histograms.parquet",
-            &mut df,
-            crate::output::table_metadata(first),
-        )?;
-        let mut files = vec!["summary.parquet".to_string(), "histograms.parquet".into()];
+            histograms_frame(&hists).map_err(|e| ("histograms.parquet", e))?,
+        ));
         let drops: Vec<(PointValues, DropAccs)> = self
             .points
             .iter()
@@ -401,15 +459,34 @@ impl Study {
                 (p.values.clone(), laws.zip(&p.result.acc.drops).collect())
             })
             .collect();
-        let frames = drop_frames(&drops, &first.contacts).map_err(err("bounces.parquet"))?;
-        for (name, mut df) in frames {
+        let contacts = &self.points[0].summary.contacts;
+        tables.extend(drop_frames(&drops, contacts).map_err(|e| ("bounces.parquet", e))?);
+        Ok(tables)
+    }
+
+    /// Writes the run folder: summary.parquet, histograms.parquet,
+    /// summary.json, samples.parquet (already streamed) and manifest.json
+    /// (last), all renamed together. A study kept in memory has no folder.
+    pub fn write(&mut self) -> Result<Vec<PathBuf>, OutputError> {
+        let mut staging = self.staging.take().ok_or(OutputError::NoFolder)?;
+        let dir = staging.dir().to_path_buf();
+        let dir = dir.as_path();
+        let first = &self.points[0].summary;
+        let tables = self
+            .tables()
+            .map_err(|(name, source)| OutputError::Parquet {
+                path: dir.join(name).display().to_string(),
+                source,
+            })?;
+        let mut files = Vec::new();
+        for (name, mut df) in tables {
             write_parquet(
                 &mut staging,
                 name,
                 &mut df,
                 crate::output::table_metadata(first),
             )?;
-            files.push(name.into());
+            files.push(name.to_string());
         }
         staging.write_json("summary.json", &self.summary_json())?;
         files.push("summary.json".into());
@@ -482,14 +559,14 @@ pub struct Prepared {
     pub kernel_line: String,
 }
 
-/// Validates a scene file (every sweep point) with its overrides and the
-/// run's options, and says what it will run.
+/// Validates a scene (every sweep point) with its overrides and the run's
+/// options, and says what it will run.
 pub fn prepare(
-    path: &Path,
+    src: &SceneText,
     overrides: &Overrides,
     opts: &RunOptions,
 ) -> Result<Prepared, StudyError> {
-    let (_, points) = plan(path, overrides)?;
+    let (_, points) = plan_text(src, overrides)?;
     let scene = &points[0].scene;
     Ok(Prepared {
         name: scene.name().to_string(),
@@ -498,12 +575,13 @@ pub fn prepare(
     })
 }
 
-/// Runs a scene file: every grid point through the engine ([`run_study`]).
+/// Runs a scene: every grid point through the engine ([`run_study`]),
+/// into the run folder `dir`, or kept in memory without one.
 pub fn run(
-    path: &Path,
+    src: &SceneText,
     overrides: &Overrides,
     opts: &RunOptions,
-    dir: &Path,
+    dir: Option<&Path>,
 ) -> Result<Study, StudyError> {
-    run_study(path, overrides, opts, dir)
+    run_study(src, overrides, opts, dir)
 }

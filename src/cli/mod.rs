@@ -9,7 +9,7 @@ pub mod solve;
 pub mod stress;
 
 use impactmc::output::OutputError;
-use impactmc::study::StudyError;
+use impactmc::study::{message_chain, StudyError};
 
 /// Summary format on stdout.
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -42,28 +42,13 @@ impl Failure {
     }
 }
 
-/// The message with its chain of causes (`a: b: c`), each once.
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut s = e.to_string();
-    let mut source = e.source();
-    while let Some(c) = source {
-        let m = c.to_string();
-        if !s.contains(&m) {
-            s.push_str(": ");
-            s.push_str(&m);
-        }
-        source = c.source();
-    }
-    s
-}
-
 impl From<StudyError> for Failure {
     fn from(e: StudyError) -> Self {
-        let message = chain(&e);
-        match e {
-            StudyError::Scene(_) | StudyError::Merge(_) => Self::bad_input(message),
-            StudyError::Output(OutputError::Exists(_)) => Self::bad_input(message),
-            StudyError::Run(_) | StudyError::Output(_) => Self::failed(message),
+        let message = message_chain(&e);
+        if e.is_bad_input() {
+            Self::bad_input(message)
+        } else {
+            Self::failed(message)
         }
     }
 }
@@ -73,7 +58,7 @@ impl From<OutputError> for Failure {
     /// cannot be prepared before any work is bad input; the subcommands map
     /// that with [`Failure::bad_input`].)
     fn from(e: OutputError) -> Self {
-        Self::failed(chain(&e))
+        Self::failed(message_chain(&e))
     }
 }
 

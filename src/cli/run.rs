@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use impactmc::config::{Keep, Overrides, Precision};
+use impactmc::config::{Keep, Overrides, Precision, SceneText};
 use impactmc::engine::RunOptions;
 use impactmc::output::prepare_dir;
 use impactmc::stats::tree::Shard;
@@ -106,7 +106,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     // Validate the scene (every sweep point) and the folder before any work;
     // what will run goes to stderr (stdout may be JSON).
-    let prepared = study::prepare(&path, &overrides, &opts)?;
+    let src = SceneText::read(&path).map_err(Failure::bad_input)?;
+    let prepared = study::prepare(&src, &overrides, &opts)?;
     eprintln!("{}", prepared.effects_line);
     eprintln!("{}", prepared.kernel_line);
     let name = &prepared.name;
@@ -117,7 +118,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         None => PathBuf::from("results").join(name),
     });
     prepare_dir(&dir, args.force).map_err(Failure::bad_input)?;
-    let study = study::run(&path, &overrides, &opts, &dir)?;
+    let mut study = study::run(&src, &overrides, &opts, Some(&dir))?;
     let mut text = study.text();
     if let Some(s) = args.shard {
         let r = &study.points[0].result;

@@ -3,7 +3,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use impactmc::config::case::{parse_case, Case};
+use impactmc::config::case::solve_text;
 
 use super::{emit, Failure};
 
@@ -24,11 +24,7 @@ pub fn run(path: &Path) -> Result<(), Failure> {
         };
         (s, json, path.display().to_string())
     };
-    let input = parse_case(&text, json).map_err(|e| Failure::bad_input(format!("{name}: {e}")))?;
-    let case = Case::from_input(&input).map_err(|e| Failure::bad_input(format!("{name}: {e}")))?;
-    let out = case
-        .solve()
-        .map_err(|e| Failure::bad_input(format!("{name}: {e}")))?;
+    let out = solve_text(&name, &text, json).map_err(Failure::bad_input)?;
     let json = serde_json::to_string_pretty(&out).map_err(Failure::failed)?;
     emit(&format!("{json}\n"));
     Ok(())

@@ -412,6 +412,36 @@ impl CaseOutput {
     }
 }
 
+/// Why a case was not solved: the input's name (a file, `stdin`,
+/// `<string>`), the field when one is at fault, and what is wrong. Its text
+/// is what every front end prints.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{name}: {}{message}", field.as_ref().map(|f| format!("{f}: ")).unwrap_or_default())]
+pub struct CaseError {
+    pub name: String,
+    pub field: Option<String>,
+    pub message: String,
+}
+
+/// Parses, validates and solves one case: what `impactmc solve` prints.
+/// `json` as in [`parse_case`]; `name` names the input in errors.
+pub fn solve_text(name: &str, text: &str, json: Option<bool>) -> Result<CaseOutput, CaseError> {
+    let input = parse_case(text, json).map_err(|message| CaseError {
+        name: name.to_string(),
+        field: None,
+        message,
+    })?;
+    let by_field = |e: FieldError| CaseError {
+        name: name.to_string(),
+        field: Some(e.field),
+        message: e.message,
+    };
+    Case::from_input(&input)
+        .map_err(by_field)?
+        .solve()
+        .map_err(by_field)
+}
+
 /// Parses a case from JSON or TOML text. `json` chooses the format; with
 /// `None` the text is JSON when its first non-blank character is `{`.
 pub fn parse_case(text: &str, json: Option<bool>) -> Result<CaseInput, String> {

@@ -363,11 +363,45 @@ impl Overrides {
     }
 }
 
+/// A scene's TOML text and the name its errors give as the file: read
+/// from a path, or given as it is (a front end's string).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneText {
+    pub file: String,
+    pub text: String,
+}
+
+impl SceneText {
+    /// Reads a scene file; an unreadable one is an error of the field
+    /// `(file)`.
+    pub fn read(path: &Path) -> Result<Self, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(&file, &e))?;
+        Ok(Self { file, text })
+    }
+
+    /// Scene text given as it is; `file` names it in errors (`<string>`).
+    pub fn new(file: impl Into<String>, text: impl Into<String>) -> Self {
+        Self {
+            file: file.into(),
+            text: text.into(),
+        }
+    }
+
+    /// The raw scene with the overrides applied.
+    pub fn raw(&self, overrides: &Overrides) -> Result<RawScene, SceneError> {
+        let mut raw = Scene::parse(&self.file, &self.text)?;
+        overrides.apply(&mut raw);
+        Ok(raw)
+    }
+
+    /// The validated scene (without a sweep: see [`super::sweep::plan`]).
+    pub fn scene(&self, overrides: &Overrides) -> Result<Scene, SceneError> {
+        Scene::validate(&self.file, &self.text, self.raw(overrides)?)
+    }
+}
+
 /// Loads a scene file and applies overrides.
 pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(&file, &e))?;
-    let mut raw = Scene::parse(&file, &text)?;
-    overrides.apply(&mut raw);
-    Scene::validate(&file, &text, raw)
+    SceneText::read(path)?.scene(overrides)
 }

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::config::RawScene;
-use crate::config::{Overrides, Scene, SceneError};
+use crate::config::{Overrides, Scene, SceneError, SceneText};
 
 /// One axis of the grid: a field path and its values.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,15 +139,21 @@ pub fn axes(file: &str, raw: &RawScene) -> Result<Vec<Axis>, SceneError> {
 
 /// Expands a scene file into its grid points (one point without a sweep).
 pub fn plan(path: &Path, overrides: &Overrides) -> Result<(Vec<Axis>, Vec<Point>), SceneError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| err(&file, "(file)", e.to_string()))?;
-    let mut raw = Scene::parse(&file, &text)?;
-    overrides.apply(&mut raw);
-    let axes = axes(&file, &raw)?;
+    plan_text(&SceneText::read(path)?, overrides)
+}
+
+/// Expands scene text into its grid points (one point without a sweep).
+pub fn plan_text(
+    src: &SceneText,
+    overrides: &Overrides,
+) -> Result<(Vec<Axis>, Vec<Point>), SceneError> {
+    let (file, text) = (src.file.as_str(), src.text.as_str());
+    let raw = src.raw(overrides)?;
+    let axes = axes(file, &raw)?;
     let total: usize = axes.iter().map(|a| a.values.len()).product();
     if total > MAX_POINTS {
         return Err(err(
-            &file,
+            file,
             "sweep",
             format!("{total} grid points; at most {MAX_POINTS}"),
         ));
@@ -155,7 +161,7 @@ pub fn plan(path: &Path, overrides: &Overrides) -> Result<(Vec<Axis>, Vec<Point>
     let mut base = raw.clone();
     base.sweep = None;
     let base_value =
-        toml::Value::try_from(&base).map_err(|e| err(&file, "(scene)", e.to_string()))?;
+        toml::Value::try_from(&base).map_err(|e| err(file, "(scene)", e.to_string()))?;
     let mut points = Vec::with_capacity(total);
     for flat in 0..total {
         let mut rem = flat;
@@ -170,13 +176,13 @@ pub fn plan(path: &Path, overrides: &Overrides) -> Result<(Vec<Axis>, Vec<Point>
         for (a, &i) in axes.iter().zip(&idx) {
             let x = a.values[i];
             set_path(&mut doc, &a.path, x)
-                .map_err(|m| err(&file, &format!("sweep.{:?}", a.path), m))?;
+                .map_err(|m| err(file, &format!("sweep.{:?}", a.path), m))?;
             values.push((a.path.clone(), x));
         }
         let point_raw: RawScene = doc
             .try_into()
-            .map_err(|e: toml::de::Error| err(&file, "sweep", e.message().to_string()))?;
-        let scene = Scene::validate(&file, &text, point_raw).map_err(|mut e| {
+            .map_err(|e: toml::de::Error| err(file, "sweep", e.message().to_string()))?;
+        let scene = Scene::validate(file, text, point_raw).map_err(|mut e| {
             if !values.is_empty() {
                 e.message = format!("{} (at sweep point {values:?})", e.message);
             }

@@ -12,6 +12,8 @@ mod batch;
 mod evaluate;
 pub(crate) mod pool;
 
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -104,6 +106,57 @@ pub struct RunOptions {
     /// The per-sample float columns a sink takes (one flag per column of
     /// `RowLayout`); the others are not computed. None: all.
     pub sample_floats: Option<Vec<bool>>,
+    /// Progress and cancellation for a caller on another thread.
+    pub watch: Option<Arc<Watch>>,
+}
+
+/// A run seen from another thread: the samples done so far, and a flag
+/// that stops the run between batches ([`RunError::Cancelled`]).
+#[derive(Debug, Default)]
+pub struct Watch {
+    done: AtomicU64,
+    cancel: AtomicBool,
+}
+
+impl Watch {
+    pub fn new() -> Arc<Self> {
+        Arc::new(Self::default())
+    }
+
+    /// Samples whose batches have finished (in this run, or in the runs of
+    /// a study's grid points so far).
+    pub fn done(&self) -> u64 {
+        self.done.load(Ordering::Relaxed)
+    }
+
+    /// Asks the run to stop: batches not started yet are skipped, and the
+    /// run returns [`RunError::Cancelled`].
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+
+    pub fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+/// The terminal's progress bar and the caller's [`Watch`].
+struct Progress<'a> {
+    bar: indicatif::ProgressBar,
+    watch: Option<&'a Watch>,
+}
+
+impl Progress<'_> {
+    fn inc(&self, samples: u64) {
+        self.bar.inc(samples);
+        if let Some(w) = self.watch {
+            w.done.fetch_add(samples, Ordering::Relaxed);
+        }
+    }
+
+    fn stopped(&self) -> bool {
+        self.watch.is_some_and(|w| w.cancelled())
+    }
 }
 
 /// Batches run per step when per-sample rows are written (rows are
@@ -120,7 +173,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
     scene: &Scene,
     plan: StatsPlan,
     batch_range: std::ops::Range<u64>,
-    bar: &indicatif::ProgressBar,
+    progress: &Progress,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
@@ -152,8 +205,11 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
     // Holds cleared accumulators only.
     let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
-        let mut work = pool.take(|| Work::new(laws));
         let mut part = accs.take(|| RunAcc::shaped(Shape::of(scene)));
+        if progress.stopped() {
+            return (part, None);
+        }
+        let mut work = pool.take(|| Work::new(laws));
         let lo = b * batch;
         let hi = (lo + batch).min(total);
         let mut rows = want_rows.then(|| {
@@ -176,7 +232,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
         }
         part.flush();
         pool.give(work);
-        bar.inc(hi - lo);
+        progress.inc(hi - lo);
         (part, rows)
     };
     run_tree(batch_range, &run_batch, &accs, sink)
@@ -190,7 +246,7 @@ fn run_drops(
     start: DropBox,
     keep: Keep,
     batch_range: std::ops::Range<u64>,
-    bar: &indicatif::ProgressBar,
+    progress: &Progress,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
@@ -202,12 +258,15 @@ fn run_drops(
     let accs = Pool::<RunAcc>::new();
     let run_batch = |b: u64| -> (RunAcc, Option<SampleRows>) {
         let mut part = accs.take(|| RunAcc::shaped(shape));
+        if progress.stopped() {
+            return (part, None);
+        }
         let mut rows = want_rows.then(|| empty_rows.clone());
         let lo = b * batch;
         let hi = (lo + batch).min(total);
         ctx.run(lo, hi - lo, &mut part, rows.as_mut());
         part.flush();
-        bar.inc(hi - lo);
+        progress.inc(hi - lo);
         (part, rows)
     };
     run_tree(batch_range, &run_batch, &accs, sink)
@@ -288,6 +347,8 @@ pub enum RunError {
     Pool(#[from] rayon::ThreadPoolBuildError),
     #[error("per-sample output: {0}")]
     Sink(#[source] SinkError),
+    #[error("the run was cancelled")]
+    Cancelled,
 }
 
 /// Runs a scene (summary statistics only).
@@ -330,6 +391,10 @@ pub fn run_with_samples(
     } else {
         indicatif::ProgressBar::hidden()
     };
+    let progress = Progress {
+        bar,
+        watch: opts.watch.as_deref(),
+    };
     let cpu0 = process_cpu_seconds();
     let t0 = Instant::now();
     let r = range.clone();
@@ -345,13 +410,23 @@ pub fn run_with_samples(
         .install(|| {
             // The one choice of a batch body by the kind of scene.
             match scene.placement() {
-                Placement::Drop(start) => run_drops(scene, *start, opts.keep, r, &bar, sink, rows),
+                Placement::Drop(start) => {
+                    run_drops(scene, *start, opts.keep, r, &progress, sink, rows)
+                }
                 Placement::Contact(_) => {
-                    with_kernel!(scene, variant, run_typed(scene, plan, r, &bar, sink, rows))
+                    with_kernel!(
+                        scene,
+                        variant,
+                        run_typed(scene, plan, r, &progress, sink, rows)
+                    )
                 }
             }
         })
         .map_err(RunError::Sink)?;
+    if progress.stopped() {
+        progress.bar.finish_and_clear();
+        return Err(RunError::Cancelled);
+    }
     let kept = if opts.shard.is_some() {
         nodes.clone()
     } else {
@@ -360,7 +435,7 @@ pub fn run_with_samples(
     let (mut acc, _) = reduce_tree(nodes, batches, Shape::of(scene));
     acc.finish();
     let wall_seconds = t0.elapsed().as_secs_f64();
-    bar.finish_and_clear();
+    progress.bar.finish_and_clear();
     let cpu_seconds = match (cpu0, process_cpu_seconds()) {
         (Some(a), Some(b)) => Some(b - a),
         _ => None,

@@ -29,8 +29,8 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 
 use arrow_array::{
-    ArrayRef, Float32Array, Float64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
-    UInt8Array,
+    ArrayRef, Float32Array, Float64Array, RecordBatch, RecordBatchReader, StringArray, UInt16Array,
+    UInt32Array, UInt64Array, UInt8Array,
 };
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk, ArrowRowGroupWriterFactory};
@@ -323,6 +323,108 @@ impl SamplesWriter {
             }
         }
         Ok(self.rows)
+    }
+}
+
+/// Per-sample rows kept in memory as Arrow record batches, with the
+/// columns and schema `samples.parquet` would have: a run without an
+/// output folder. Each engine batch's rows become one record batch; the
+/// columns are moved, not copied.
+pub struct MemoryRows {
+    selection: Selection,
+    schema: SchemaRef,
+    point: Option<u32>,
+    sweep: bool,
+    batches: Vec<RecordBatch>,
+}
+
+impl MemoryRows {
+    pub fn new(selection: Selection, sweep: bool) -> Self {
+        let schema = Arc::new(schema_of(&selection, sweep));
+        Self {
+            selection,
+            schema,
+            point: None,
+            sweep,
+            batches: Vec::new(),
+        }
+    }
+
+    /// Per float column of the scene, whether the rows keep it.
+    pub fn float_mask(&self) -> &[bool] {
+        self.selection.float_mask()
+    }
+
+    /// Sets the grid point of the following rows (a sweep).
+    pub fn set_point(&mut self, point: Option<u32>) {
+        self.point = point;
+    }
+
+    /// Takes a batch of rows (in sample order).
+    pub fn push(&mut self, rows: SampleRows) -> Result<(), arrow_schema::ArrowError> {
+        if rows.is_empty() {
+            return Ok(());
+        }
+        let point = self
+            .sweep
+            .then(|| self.point.expect("a sweep sets its point"));
+        let columns = arrays(&self.selection, point, rows);
+        self.batches
+            .push(RecordBatch::try_new(self.schema.clone(), columns)?);
+        Ok(())
+    }
+
+    /// The schema and every record batch, in sample order.
+    pub fn finish(self) -> ArrowTable {
+        ArrowTable {
+            schema: self.schema,
+            batches: self.batches,
+        }
+    }
+}
+
+/// A table in memory as Arrow record batches: per-sample rows (with
+/// `samples.parquet`'s schema, in sample order) or a summary table.
+#[derive(Debug, Clone)]
+pub struct ArrowTable {
+    pub schema: SchemaRef,
+    pub batches: Vec<RecordBatch>,
+}
+
+impl ArrowTable {
+    pub fn rows(&self) -> usize {
+        self.batches.iter().map(|b| b.num_rows()).sum()
+    }
+
+    /// A polars table (the summary tables are built with polars) as Arrow
+    /// record batches, through Parquet in memory: the columns, types and
+    /// values its Parquet file holds.
+    pub fn of_frame(df: &mut polars::prelude::DataFrame) -> Result<Self, ParquetError> {
+        let mut buffer = Vec::new();
+        polars::prelude::ParquetWriter::new(&mut buffer)
+            .finish(df)
+            .map_err(|e| ParquetError::External(Box::new(e)))?;
+        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
+            bytes::Bytes::from(buffer),
+        )?
+        .build()?;
+        let schema = reader.schema();
+        let batches = reader
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| ParquetError::External(Box::new(e)))?;
+        Ok(Self { schema, batches })
+    }
+
+    /// A Parquet file's rows (`samples.parquet` of a run folder).
+    pub fn read(path: &Path) -> Result<Self, ParquetError> {
+        let file = std::fs::File::open(path).map_err(|e| ParquetError::External(Box::new(e)))?;
+        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)?
+            .build()?;
+        let schema = reader.schema();
+        let batches = reader
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| ParquetError::External(Box::new(e)))?;
+        Ok(Self { schema, batches })
     }
 }
 

@@ -27,6 +27,8 @@ pub enum OutputError {
         #[source]
         source: PolarsError,
     },
+    #[error("this run was kept in memory: it has no output folder to write")]
+    NoFolder,
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {

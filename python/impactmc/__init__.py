@@ -1,0 +1,280 @@
+"""impactmc in Python: Monte Carlo statistics of rigid-ellipsoid impacts.
+
+The same engine and the same answers as the ``impactmc`` command line::
+
+    import impactmc
+    scene = impactmc.Scene.from_toml("configs/corner3.toml")
+    result = scene.run(samples=10**6)
+    print(result.text)                  # the CLI's summary
+    result.summary["laws"]["newton"]    # summary.json as a dict
+    rows = scene.run(samples=10**5, per_sample=True).samples()
+    df = rows.to_polars()               # Arrow, without a copy
+
+A run releases the GIL and works on its own threads; Ctrl-C stops it within
+about a second. With ``multiprocessing``, use the ``spawn`` or
+``forkserver`` start method: the engine's thread pool does not survive
+``fork``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
+
+from . import _impactmc
+from ._impactmc import InputError, OutputExistsError, Table
+
+__all__ = [
+    "InputError",
+    "OutputExistsError",
+    "Result",
+    "Scene",
+    "Table",
+    "solve",
+    "__version__",
+]
+
+__version__: str = _impactmc.__version__
+
+PathLike = Union[str, "os.PathLike[str]"]
+Progress = Union[bool, Callable[[int, int], Any], None]
+
+
+def solve(case: Union[Mapping[str, Any], PathLike, str]) -> dict:
+    """Solves one impact case: the dict ``impactmc solve`` prints.
+
+    ``case`` is a dict, a path to a ``.json`` or ``.toml`` case file, or the
+    case's JSON (or TOML) text. Bad input raises :class:`InputError` with
+    the command line's message.
+    """
+    if isinstance(case, Mapping):
+        out = _impactmc._solve("<dict>", json.dumps(dict(case)), True)
+    elif isinstance(case, os.PathLike) or (
+        isinstance(case, str) and "\n" not in case and not case.lstrip().startswith("{")
+        and os.path.exists(case)
+    ):
+        path = os.fspath(case)
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        kind = {".json": True, ".toml": False}.get(os.path.splitext(path)[1])
+        out = _impactmc._solve(path, text, kind)
+    elif isinstance(case, str):
+        out = _impactmc._solve("<string>", case, None)
+    else:
+        raise TypeError(f"a case is a dict, a path or text, not {type(case).__name__}")
+    return json.loads(out)
+
+
+def _table_to_polars(self: Table):
+    """The table as a polars DataFrame (no copy of the columns)."""
+    import polars as pl
+
+    return pl.DataFrame(self)
+
+
+def _table_to_pyarrow(self: Table):
+    """The table as a pyarrow Table (no copy of the columns)."""
+    import pyarrow as pa
+
+    return pa.table(self)
+
+
+def _table_to_numpy(self: Table, column: str):
+    """One column as a numpy array (through pyarrow, or polars if pyarrow
+    is missing)."""
+    if column not in self.column_names:
+        raise KeyError(f"no column {column!r}; the table has {', '.join(self.column_names)}")
+    try:
+        import pyarrow as pa
+    except ImportError:
+        return _table_to_polars(self)[column].to_numpy()
+    return pa.table(self).column(column).to_numpy()
+
+
+Table.to_polars = _table_to_polars  # type: ignore[attr-defined]
+Table.to_pyarrow = _table_to_pyarrow  # type: ignore[attr-defined]
+Table.to_numpy = _table_to_numpy  # type: ignore[attr-defined]
+
+
+class Result:
+    """A finished run: ``summary`` (summary.json as a dict), ``text`` (the
+    terminal summary), ``table(name)``, ``samples()`` and ``manifest``."""
+
+    def __init__(self, inner: "_impactmc.Result"):
+        self._inner = inner
+        self._summary: Optional[dict] = None
+
+    @property
+    def summary(self) -> dict:
+        """The dict of ``summary.json`` (what ``run --format json`` prints)."""
+        if self._summary is None:
+            self._summary = json.loads(self._inner._summary_json())
+        return self._summary
+
+    @property
+    def text(self) -> str:
+        """The summary the command line prints."""
+        return self._inner.text
+
+    @property
+    def out(self) -> Optional[str]:
+        """The run folder, or None for a run kept in memory."""
+        out = self._inner.out
+        return None if out is None else os.fspath(out)
+
+    @property
+    def manifest(self) -> Optional[dict]:
+        """The run folder's ``manifest.json``, or None for a run kept in
+        memory."""
+        text = self._inner._manifest_json()
+        return None if text is None else json.loads(text)
+
+    @property
+    def table_names(self) -> list:
+        """The tables :meth:`table` gives: ``summary``, ``histograms`` and,
+        for a drop scene, its bounce tables."""
+        return self._inner.table_names
+
+    def table(self, name: str) -> Table:
+        """A table by name, with the columns of its Parquet file in a run
+        folder."""
+        return self._inner.table(name)
+
+    def samples(self) -> Table:
+        """The per-sample rows of a run with ``per_sample=True``, with the
+        columns of ``samples.parquet``."""
+        return self._inner.samples()
+
+    def __repr__(self) -> str:
+        return repr(self._inner)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.text)}</pre>"
+
+
+class Scene:
+    """A validated scene, as in ``configs/*.toml``.
+
+    Make one with :meth:`from_toml`, :meth:`from_str` or :meth:`from_dict`;
+    :meth:`replace` gives a copy with fields changed. Every input the
+    command line refuses raises :class:`InputError` here, with its message.
+    """
+
+    def __init__(self, inner: "_impactmc.Scene"):
+        self._inner = inner
+
+    @classmethod
+    def from_toml(cls, path: PathLike) -> "Scene":
+        """A scene file."""
+        return cls(_impactmc.Scene.from_toml(os.fspath(path)))
+
+    @classmethod
+    def from_str(cls, text: str) -> "Scene":
+        """Scene TOML text."""
+        return cls(_impactmc.Scene.from_str(text))
+
+    @classmethod
+    def from_dict(cls, scene: Mapping[str, Any]) -> "Scene":
+        """A scene as the dict of its TOML tables (``tomllib.load`` gives
+        one)."""
+        return cls(_impactmc.Scene._from_json(json.dumps(dict(scene))))
+
+    def replace(self, **fields: Any) -> "Scene":
+        """A copy with fields replaced, e.g. ``replace(samples=10**6,
+        laws=["newton"], precision="f64")``. A dict given for a table
+        (``body={"mass": 2.0}``) is merged into it; a dotted path
+        (``**{"body.mass": 2.0}``) names one field."""
+        return Scene(self._inner._replace(json.dumps(fields)))
+
+    @property
+    def name(self) -> str:
+        return self._inner.name
+
+    @property
+    def effects(self) -> str:
+        """What the command line prints first: the effects computed."""
+        return self._inner.effects
+
+    @property
+    def kernel(self) -> str:
+        """What the command line prints second: the kernel it runs."""
+        return self._inner.kernel
+
+    @property
+    def toml(self) -> str:
+        """The scene's TOML text."""
+        return self._inner.toml
+
+    def run(
+        self,
+        samples: Optional[int] = None,
+        seed: Optional[int] = None,
+        threads: Optional[int] = None,
+        per_sample: bool = False,
+        out: Optional[PathLike] = None,
+        force: bool = False,
+        shard: Optional[Union[str, Sequence[int]]] = None,
+        progress: Progress = True,
+        columns: Optional[Iterable[str]] = None,
+    ) -> Result:
+        """Runs the scene (every sweep point), as ``impactmc run`` does.
+
+        ``samples`` and ``seed`` override the scene's; ``threads`` defaults
+        to every core (results do not depend on it). With ``per_sample``
+        the rows are kept (``Result.samples()``); ``columns`` chooses them.
+        Without ``out`` nothing is written to disk; with it the run folder
+        is written as the command line writes it (an existing run there
+        raises :class:`OutputExistsError` unless ``force``). ``shard`` is
+        ``"I/N"`` or ``(I, N)``. ``progress``: True shows a ``tqdm`` bar
+        when tqdm is installed, a callable gets ``(done, total)`` samples
+        about every 100 ms, False or None shows nothing.
+        """
+        if isinstance(shard, (tuple, list)):
+            shard = f"{shard[0]}/{shard[1]}"
+        callback, close = _progress(progress)
+        try:
+            inner = self._inner._run(
+                samples=samples,
+                seed=seed,
+                threads=threads or 0,
+                per_sample=per_sample,
+                columns=None if columns is None else list(columns),
+                out=None if out is None else os.fspath(out),
+                force=force,
+                shard=shard,
+                callback=callback,
+            )
+        finally:
+            close()
+        return Result(inner)
+
+    def __repr__(self) -> str:
+        return repr(self._inner)
+
+
+def _progress(progress: Progress):
+    """The callback for a run's progress, and what closes it."""
+    if callable(progress):
+        return progress, lambda: None
+    if not progress:
+        return None, lambda: None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None, lambda: None
+    bar = None
+
+    def update(done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, unit="samples", unit_scale=True, leave=False)
+        bar.update(done - bar.n)
+
+    def close() -> None:
+        if bar is not None:
+            bar.close()
+
+    return update, close
