@@ -221,6 +221,7 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
     i: usize,
     fr: &Frame<T, N>,
     sw: &mut Sweep<T, N>,
+    lanes: usize,
 ) {
     let fc = &c.fr;
     let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
@@ -229,7 +230,7 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
         p, dv, dw, solve, ..
     } = sw;
     let k = &mut *solve;
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let w = w_of(fr, i, s);
         let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
         if COUPLED {
@@ -303,8 +304,8 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
 /// lane that lands elsewhere, or has not converged, is caught by the
 /// judgement).
 #[inline(always)]
-pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
-    for s in 0..k.len.min(BLOCK) {
+pub(super) fn certified_start<T: Real>(k: &mut Solve<T>, lanes: usize) {
+    for s in 0..lanes {
         let now = [
             k.start[0][s],
             k.start[1][s],
@@ -322,8 +323,8 @@ pub(super) fn certified_start<T: Real>(k: &mut Solve<T>) {
 
 /// One step of the certified search, capped at half a radian.
 #[inline(always)]
-pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
-    for s in 0..k.len.min(BLOCK) {
+pub(super) fn certified_step<T: Real>(k: &mut Solve<T>, lanes: usize) {
+    for s in 0..lanes {
         let sl = slide_of(k, s);
         let [cj, sj, t] = [k.newton[0][s], k.newton[1][s], k.newton[2][s]];
         let (cs, sn) = rotate(cj, sj, t);
@@ -341,9 +342,9 @@ pub(super) fn certified_step<T: Real>(k: &mut Solve<T>) {
 /// the stick test's band is left unsure by [`finish`] whatever a search
 /// finds.)
 #[inline(always)]
-pub(super) fn certified_settle<T: Real>(k: &mut Solve<T>) -> bool {
+pub(super) fn certified_settle<T: Real>(k: &mut Solve<T>, lanes: usize) -> bool {
     let mut open = false;
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let stuck = k.stick_ok[s];
         k.count[s] = select(stuck, T::ZERO, k.count[s]);
         k.roots_ok[s] |= stuck;
@@ -366,8 +367,8 @@ fn no_roots_yet<T: Real>(k: &mut Solve<T>, s: usize) {
 
 /// The full search after an undecided certified one: no roots yet.
 #[inline(always)]
-pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
-    for s in 0..k.len.min(BLOCK) {
+pub(super) fn restart<T: Real>(k: &mut Solve<T>, lanes: usize) {
+    for s in 0..lanes {
         no_roots_yet(k, s);
     }
 }
@@ -376,8 +377,12 @@ pub(super) fn restart<T: Real>(k: &mut Solve<T>) {
 /// derivatives and F at the grid's start (the certified search needs
 /// neither).
 #[inline(always)]
-pub(super) fn grid_setup<T: Real, const N: usize>(fc: &FrictionConsts<T, N>, k: &mut Solve<T>) {
-    for s in 0..k.len.min(BLOCK) {
+pub(super) fn grid_setup<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    k: &mut Solve<T>,
+    lanes: usize,
+) {
+    for s in 0..lanes {
         let sl = slide_of(k, s);
         let f1 = sl.a1.mul_add(sl.a1, sl.b1 * sl.b1).sqrt();
         let f2 = sl.a2.mul_add(sl.a2, sl.b2 * sl.b2).sqrt();
@@ -412,10 +417,11 @@ pub(super) fn interval<T: Real, const N: usize>(
     fc: &FrictionConsts<T, N>,
     j: usize,
     k: &mut Solve<T>,
+    lanes: usize,
 ) {
     let index = T::from_f64(j as f64);
     let g = fc.grid[j + 1];
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let sl = slide_of(k, s);
         let right = sl.at(g);
         let [f0, fp0, fpp0, fppp0, f40] = std::array::from_fn(|m| k.left[m][s]);
@@ -458,9 +464,10 @@ pub(super) fn root_start<T: Real, const N: usize>(
     fc: &FrictionConsts<T, N>,
     n: usize,
     k: &mut Solve<T>,
+    lanes: usize,
 ) {
     let per_turn = T::from_f64(1.0 / GRID as f64);
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let used = k.changes[s] > T::from_f64(n as f64);
         let j = select(used, k.slot[n][0][s], T::ZERO);
         let (sn, cs) = (j * per_turn).sin_cos_2pi();
@@ -489,8 +496,8 @@ pub(super) fn angles<T: Real>(cs: T, sn: T) -> [T; 4] {
 /// One safeguarded Newton step on root n: the bracket keeps the root, and a
 /// step that leaves it is replaced by bisection.
 #[inline(always)]
-pub(super) fn root_step<T: Real>(n: usize, k: &mut Solve<T>) {
-    for s in 0..k.len.min(BLOCK) {
+pub(super) fn root_step<T: Real>(n: usize, k: &mut Solve<T>, lanes: usize) {
+    for s in 0..lanes {
         let sl = slide_of(k, s);
         let [cj, sj, t, lo, hi, _] = std::array::from_fn(|m| k.newton[m][s]);
         let up = k.slot[n][2][s] > k.slot[n][1][s];
@@ -518,8 +525,9 @@ pub(super) fn root_judge<T: Real, const N: usize>(
     n: usize,
     fr: &Frame<T, N>,
     k: &mut Solve<T>,
+    lanes: usize,
 ) {
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let sl = slide_of(k, s);
         let used = k.changes[s] > T::from_f64(n as f64);
         let [cj, sj, t, _, _, step] = std::array::from_fn(|m| k.newton[m][s]);
@@ -549,6 +557,7 @@ pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: 
     i: usize,
     fr: &Frame<T, N>,
     sw: &mut Sweep<T, N>,
+    lanes: usize,
 ) {
     let fc = &c.fr;
     let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
@@ -566,7 +575,7 @@ pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: 
         ..
     } = sw;
     let k = &*solve;
-    for s in 0..k.len.min(BLOCK) {
+    for s in 0..lanes {
         let a = k.a[s];
         let w = w_of(fr, i, s);
         let approaching = a < T::ZERO;

@@ -26,60 +26,65 @@ pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
     i: usize,
     fr: &Frame<T, N>,
     sw: &mut Sweep<T, N>,
+    lanes: usize,
 ) {
     let fc = &c.fr;
-    setup::<T, N, COUPLED>(c, i, fr, sw);
+    setup::<T, N, COUPLED>(c, i, fr, sw, lanes);
     if fc.mu[i] == T::ZERO {
-        finish::<T, N, COUPLED, false>(c, i, fr, sw);
+        finish::<T, N, COUPLED, false>(c, i, fr, sw, lanes);
         return;
     }
     let k = &mut sw.solve;
     if fr.b3_all[i] {
         // B3 in every lane: one root from the start direction, unless a
         // lane is left undecided (then the full search below, afresh).
-        certified_start(k);
+        certified_start(k, lanes);
         for _ in 0..fc.certified_steps {
-            certified_step(k);
+            certified_step(k, lanes);
         }
-        root_judge(fc, fc.mu[i], i, 0, fr, k);
-        if certified_settle(k) {
-            finish::<T, N, COUPLED, true>(c, i, fr, sw);
+        root_judge(fc, fc.mu[i], i, 0, fr, k, lanes);
+        if certified_settle(k, lanes) {
+            finish::<T, N, COUPLED, true>(c, i, fr, sw, lanes);
             return;
         }
-        restart(k);
+        restart(k, lanes);
     }
-    grid_setup(fc, k);
+    grid_setup(fc, k, lanes);
     for j in 0..GRID {
-        interval(fc, j, k);
+        interval(fc, j, k, lanes);
     }
     let iters = if T::EPSILON.to_f64() > 1e-10 { 5 } else { 8 };
     for n in 0..4 {
         // Blocks where no lane has this many roots skip it (no lane's
         // answer changes).
-        let used = k.changes[..k.len.min(BLOCK)]
+        let used = k.changes[..lanes]
             .iter()
             .any(|&x| x > T::from_f64(n as f64));
         if !used {
             break;
         }
-        root_start(fc, n, k);
+        root_start(fc, n, k, lanes);
         for _ in 0..iters {
-            root_step(n, k);
+            root_step(n, k, lanes);
         }
-        root_judge(fc, fc.mu[i], i, n, fr, k);
+        root_judge(fc, fc.mu[i], i, n, fr, k, lanes);
     }
-    finish::<T, N, COUPLED, true>(c, i, fr, sw);
+    finish::<T, N, COUPLED, true>(c, i, fr, sw, lanes);
 }
 
-/// Every contact visited once, in scene order.
+/// Every contact visited once, in scene order, in the first `lanes`
+/// lanes. (A whole block is passed as the constant [`BLOCK`], so that its
+/// passes are compiled for that count: a count known only at run time
+/// costs the full-width passes most of their speed.)
 #[inline(always)]
 pub(super) fn sweep<T: Real, const N: usize, const COUPLED: bool>(
     c: &Consts<T, N>,
     fr: &Frame<T, N>,
     sw: &mut Sweep<T, N>,
+    lanes: usize,
 ) {
     for i in 0..N {
-        visit::<T, N, COUPLED>(c, i, fr, sw);
+        visit::<T, N, COUPLED>(c, i, fr, sw, lanes);
     }
 }
 
@@ -109,17 +114,17 @@ pub fn friction_impulses<T: Real, const N: usize>(
     let mut unconverged = [false; BLOCK];
     match law {
         // Each approaching contact alone: its own c⁻ (paper with friction).
-        Law::Paper => sweep::<T, N, false>(c, fr, sw),
+        Law::Paper => sweep::<T, N, false>(c, fr, sw, BLOCK),
         Law::Pgs { sweeps } => {
             for _ in 0..sweeps {
-                sweep::<T, N, true>(c, fr, sw);
+                sweep::<T, N, true>(c, fr, sw, BLOCK);
             }
         }
         // Stronge's Darboux–Keller integration runs per sample in the f64
         // reference.
         Law::Stronge => sw.bits = [UNSURE; BLOCK],
         // One contact: a single visit is the limit (a second moves nothing).
-        Law::Newton if N == 1 => sweep::<T, N, true>(c, fr, sw),
+        Law::Newton if N == 1 => sweep::<T, N, true>(c, fr, sw, BLOCK),
         // Several contacts: sweeps until no impulse moves by more than the
         // tolerance (friction.md's stopping rule). The limit is what the
         // certificate must vouch for: a lane is kept when every visit of its
@@ -144,7 +149,10 @@ pub fn friction_impulses<T: Real, const N: usize>(
                 for b in sw.bits.iter_mut() {
                     *b &= !UNSURE;
                 }
-                sweep::<T, N, true>(c, fr, sw);
+                match sw.solve.len {
+                    BLOCK => sweep::<T, N, true>(c, fr, sw, BLOCK),
+                    lanes => sweep::<T, N, true>(c, fr, sw, lanes.min(BLOCK)),
+                }
                 let mut left = 0u32;
                 for s in 0..sw.solve.len.min(BLOCK) {
                     let still = sw.moved[s] > c.fr.gs_tol * mass * fr.vscale[s];

@@ -1,0 +1,118 @@
+"""The package against the command line: the same scenes give the same
+summaries, and the per-sample rows equal samples.parquet column by
+column."""
+
+import json
+
+import pytest
+
+import impactmc
+from conftest import strip_timing
+
+SCENES = [
+    # (scene file, samples, extra CLI flags, replace())
+    ("configs/floor.toml", 20_000, [], {}),
+    ("configs/corner3.toml", 20_000, [], {}),
+    ("configs/sweep_aspect_ratio.toml", 2_000, [], {}),
+    ("configs/drop_corner.toml", 2_000, [], {}),
+    ("configs/floor_friction.toml", 20_000, [], {}),
+    ("configs/corner3.toml", 5_000, ["--precision", "f64", "--law", "newton", "--law", "paper"],
+     {"precision": "f64", "laws": ["newton", "paper"]}),
+]
+
+
+@pytest.mark.parametrize("path,samples,flags,fields", SCENES)
+def test_summary_equals_the_cli(repo, cli_summary, path, samples, flags, fields):
+    scene = impactmc.Scene.from_toml(repo / path)
+    if fields:
+        scene = scene.replace(**fields)
+    result = scene.run(samples=samples, threads=2, progress=False)
+    want = cli_summary(str(repo / path), "--samples", str(samples), *flags)
+    assert strip_timing(result.summary) == want
+    assert result.out is None and result.manifest is None
+
+
+def test_per_sample_rows_equal_the_parquet_file(repo, cli, tmp_path):
+    pl = pytest.importorskip("polars")
+    import subprocess
+
+    out = tmp_path / "cli"
+    subprocess.run(
+        [cli, "run", str(repo / "configs/corner3.toml"), "--samples", "30000", "--per-sample",
+         "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    want = pl.read_parquet(out / "samples.parquet")
+    rows = impactmc.Scene.from_toml(repo / "configs/corner3.toml").run(
+        samples=30_000, per_sample=True, progress=False
+    ).samples()
+    assert rows.num_rows == len(rows) == want.height
+    got = rows.to_polars()
+    assert got.columns == want.columns
+    for name in want.columns:
+        assert got[name].equals(want[name]), name
+
+
+def test_a_folder_is_written_as_the_cli_writes_it(repo, cli_summary, tmp_path):
+    scene = impactmc.Scene.from_toml(repo / "configs/corner3.toml")
+    out = tmp_path / "run"
+    result = scene.run(samples=10_000, out=out, per_sample=True, progress=False)
+    assert result.out == str(out)
+    files = set(result.manifest["files"])
+    assert {"summary.json", "summary.parquet", "samples.parquet"} <= files
+    on_disk = json.loads((out / "summary.json").read_text())
+    assert strip_timing(on_disk) == strip_timing(result.summary)
+    assert strip_timing(on_disk) == cli_summary(str(repo / "configs/corner3.toml"), "--samples",
+                                                "10000")
+    # The rows come back from the file.
+    assert result.samples().num_rows == 10_000
+    with pytest.raises(impactmc.OutputExistsError):
+        scene.run(samples=1_000, out=out, progress=False)
+    with pytest.raises(FileExistsError):
+        scene.run(samples=1_000, out=out, progress=False)
+    scene.run(samples=1_000, out=out, force=True, progress=False)
+
+
+def test_tables_read_without_a_copy_where_pyarrow_is(repo):
+    pa = pytest.importorskip("pyarrow")
+    result = impactmc.Scene.from_toml(repo / "configs/drop_corner.toml").run(
+        samples=2_000, progress=False
+    )
+    assert "summary" in result.table_names and "bounces" in result.table_names
+    summary = pa.table(result.table("summary"))
+    laws = result.summary["laws"]
+    assert sorted(set(summary.column("law").to_pylist())) == sorted(laws)
+    with pytest.raises(KeyError, match="summary"):
+        result.table("nonsense")
+    with pytest.raises(ValueError, match="per_sample"):
+        result.samples()
+
+
+def test_duckdb_reads_the_rows(repo):
+    duckdb = pytest.importorskip("duckdb")
+    rows = impactmc.Scene.from_toml(repo / "configs/floor.toml").run(
+        samples=5_000, per_sample=True, progress=False
+    ).samples()
+    con = duckdb.connect()
+    con.register("rows", rows.to_pyarrow())
+    (n,) = con.execute("select count(*) from rows").fetchall()[0]
+    assert n == 5_000
+
+
+def test_the_same_seed_gives_the_same_rows_whatever_the_threads(repo):
+    scene = impactmc.Scene.from_toml(repo / "configs/corner3.toml")
+    a = scene.run(samples=20_000, threads=1, per_sample=True, progress=False)
+    b = scene.run(samples=20_000, threads=2, per_sample=True, progress=False)
+    assert strip_timing(a.summary) == strip_timing(b.summary)
+    assert a.samples().to_polars().equals(b.samples().to_polars())
+    c = scene.run(samples=20_000, seed=7, progress=False)
+    assert strip_timing(c.summary) != strip_timing(a.summary)
+
+
+def test_shards_cover_the_run(repo):
+    scene = impactmc.Scene.from_toml(repo / "configs/floor.toml")
+    whole = scene.run(samples=200_000, progress=False).summary
+    first = scene.run(samples=200_000, shard=(0, 2), progress=False).summary
+    second = scene.run(samples=200_000, shard="1/2", progress=False).summary
+    n = lambda s: s["laws"]["newton"]["groups"]["all"]["samples"]
+    assert n(first) + n(second) == n(whole)
