@@ -66,6 +66,24 @@ def solve(case: Union[Mapping[str, Any], PathLike, str]) -> dict:
     return json.loads(out)
 
 
+def _json(value: Any) -> str:
+    """JSON text of a scene's values; non-finite floats, which JSON cannot
+    hold, as ``{"$float": "nan"}`` (the extension decodes them)."""
+
+    def enc(v):
+        if isinstance(v, float) and v != v:
+            return {"$float": "nan"}
+        if isinstance(v, float) and v in (float("inf"), float("-inf")):
+            return {"$float": "inf" if v > 0 else "-inf"}
+        if isinstance(v, Mapping):
+            return {str(k): enc(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [enc(x) for x in v]
+        return v
+
+    return json.dumps(enc(value), allow_nan=False)
+
+
 def _table_to_polars(self: Table):
     """The table as a polars DataFrame (no copy of the columns)."""
     import polars as pl
@@ -180,14 +198,14 @@ class Scene:
     def from_dict(cls, scene: Mapping[str, Any]) -> "Scene":
         """A scene as the dict of its TOML tables (``tomllib.load`` gives
         one)."""
-        return cls(_impactmc.Scene._from_json(json.dumps(dict(scene))))
+        return cls(_impactmc.Scene._from_json(_json(dict(scene))))
 
     def replace(self, **fields: Any) -> "Scene":
         """A copy with fields replaced, e.g. ``replace(samples=10**6,
         laws=["newton"], precision="f64")``. A dict given for a table
         (``body={"mass": 2.0}``) is merged into it; a dotted path
         (``**{"body.mass": 2.0}``) names one field."""
-        return Scene(self._inner._replace(json.dumps(fields)))
+        return Scene(self._inner._replace(_json(fields)))
 
     @property
     def name(self) -> str:
@@ -207,6 +225,11 @@ class Scene:
     def toml(self) -> str:
         """The scene's TOML text."""
         return self._inner.toml
+
+    def to_dict(self) -> dict:
+        """The scene as the dict of its TOML tables (what
+        :meth:`from_dict` takes)."""
+        return json.loads(self._inner._to_json())
 
     def run(
         self,

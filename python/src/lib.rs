@@ -150,11 +150,45 @@ fn set_field(table: &mut toml::Table, path: &str, value: toml::Value) -> Result<
     Ok(())
 }
 
-/// A JSON object as a TOML table (TOML has no null).
+/// A JSON value as a TOML value. TOML has no null; a non-finite float,
+/// which JSON cannot hold, comes as `{"$float": "nan" | "inf" | "-inf"}`
+/// (the Python layer's encoding).
+fn toml_value(v: serde_json::Value) -> Result<toml::Value, String> {
+    use serde_json::Value as J;
+    Ok(match v {
+        J::Null => return Err("None has no TOML form".into()),
+        J::Bool(b) => toml::Value::Boolean(b),
+        J::Number(n) => match (n.as_i64(), n.as_f64()) {
+            (Some(i), _) => toml::Value::Integer(i),
+            (None, Some(x)) => toml::Value::Float(x),
+            _ => return Err(format!("{n} is out of range")),
+        },
+        J::String(s) => toml::Value::String(s),
+        J::Array(a) => toml::Value::Array(a.into_iter().map(toml_value).collect::<Result<_, _>>()?),
+        J::Object(o) => {
+            if let (1, Some(J::String(x))) = (o.len(), o.get("$float")) {
+                let x = match x.as_str() {
+                    "nan" => f64::NAN,
+                    "inf" => f64::INFINITY,
+                    "-inf" => f64::NEG_INFINITY,
+                    _ => return Err(format!("{x:?} is not a float")),
+                };
+                return Ok(toml::Value::Float(x));
+            }
+            let mut t = toml::Table::new();
+            for (k, v) in o {
+                t.insert(k, toml_value(v)?);
+            }
+            toml::Value::Table(t)
+        }
+    })
+}
+
+/// A JSON object as a TOML table.
 fn toml_of_json(json: &str, what: &str) -> PyResult<toml::Table> {
     let value: serde_json::Value = serde_json::from_str(json)
         .map_err(|e| input_error(format!("{what}: {e}"), None, None, None))?;
-    match toml::Value::try_from(value) {
+    match toml_value(value) {
         Ok(toml::Value::Table(t)) => Ok(t),
         Ok(_) => Err(input_error(
             format!("{what}: not a table"),
@@ -162,7 +196,7 @@ fn toml_of_json(json: &str, what: &str) -> PyResult<toml::Table> {
             None,
             None,
         )),
-        Err(e) => Err(input_error(format!("{what}: {e}"), None, None, None)),
+        Err(m) => Err(input_error(format!("{what}: {m}"), None, None, None)),
     }
 }
 
@@ -229,6 +263,16 @@ impl PyScene {
     #[getter]
     fn toml(&self) -> &str {
         &self.src.text
+    }
+
+    /// The scene's tables as JSON text (the Python layer's `to_dict`).
+    fn _to_json(&self) -> PyResult<String> {
+        let table: toml::Table = self
+            .src
+            .text
+            .parse()
+            .map_err(|e: toml::de::Error| PyRuntimeError::new_err(e.to_string()))?;
+        serde_json::to_string(&table).map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
     /// Where the scene came from (a path, `<string>`, `<dict>`,

@@ -43,8 +43,9 @@ def test_a_scene_from_text_and_from_a_dict():
     s = impactmc.Scene.from_str(FLOOR)
     assert s.name == "floor"
     assert "effects:" in s.effects and "kernel:" in s.kernel
-    tomllib = pytest.importorskip("tomllib")
-    d = impactmc.Scene.from_dict(tomllib.loads(FLOOR))
+    d = impactmc.Scene.from_dict(s.to_dict())
+    assert d.to_dict() == s.to_dict()
+    assert s.to_dict()["body"]["mass"] == 500.0
     a = s.run(progress=False).summary
     b = d.run(progress=False).summary
     assert a["laws"] == b["laws"]
@@ -55,7 +56,7 @@ def test_a_scene_from_text_and_from_a_dict():
     "fields,field,words",
     [
         ({"body": {"mass": -1.0}}, "body.mass", "-1"),
-        ({"planes": [{"name": "floor", "normal": [0.0, 0.0, 0.0], "restitution": 0.8}]},
+        ({"planes": [{"name": "floor", "normal": [0.0, 0.0, 0.0], "offset": 0.0, "restitution": 0.8}]},
          "normal", "normal"),
         ({"laws": ["nonsense"]}, "laws", "nonsense"),
         ({"unknown_field": 1}, "unknown_field", "unknown"),

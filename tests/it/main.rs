@@ -27,6 +27,7 @@ mod kernel_vs_reference;
 mod kubernetes;
 mod physics_invariants;
 mod plots;
+mod python;
 mod ratios;
 mod readers;
 mod run_cli;
