@@ -27,6 +27,8 @@ from ._impactmc import InputError, OutputExistsError, Table
 
 __all__ = [
     "InputError",
+    "inspect",
+    "merge",
     "OutputExistsError",
     "Result",
     "Scene",
@@ -64,6 +66,21 @@ def solve(case: Union[Mapping[str, Any], PathLike, str]) -> dict:
     else:
         raise TypeError(f"a case is a dict, a path or text, not {type(case).__name__}")
     return json.loads(out)
+
+
+def inspect(folder: PathLike) -> dict:
+    """A finished run folder read back, as ``impactmc inspect`` reads it:
+    ``{"manifest": ..., "summary": ..., "text": ...}``."""
+    manifest, summary, text = _impactmc._inspect(os.fspath(folder))
+    return {"manifest": json.loads(manifest), "summary": json.loads(summary), "text": text}
+
+
+def merge(shards: Iterable[PathLike], out: PathLike, force: bool = False,
+          allow_partial: bool = False) -> "Result":
+    """Shard folders (runs with ``shard=``) merged into the run folder
+    ``out``, as ``impactmc merge``: the statistics of the whole run."""
+    return Result(_impactmc._merge([os.fspath(s) for s in shards], os.fspath(out), force,
+                                   allow_partial))
 
 
 def _json(value: Any) -> str:
@@ -147,6 +164,16 @@ class Result:
         memory."""
         text = self._inner._manifest_json()
         return None if text is None else json.loads(text)
+
+    @property
+    def points(self) -> list:
+        """A sweep's grid points: ``(values, summary)`` per point, the
+        values a dict of field path to value. A run without a sweep is one
+        point with no values."""
+        s = self.summary
+        if "points" not in s:
+            return [({}, s)]
+        return [(p["values"], p["summary"]) for p in s["points"]]
 
     @property
     def table_names(self) -> list:

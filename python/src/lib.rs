@@ -95,6 +95,41 @@ fn _solve(py: Python<'_>, name: &str, text: &str, json: Option<bool>) -> PyResul
     serde_json::to_string(&out).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
+/// A finished run folder read back, as `impactmc inspect` reads it:
+/// (manifest JSON, summary JSON, text).
+#[pyfunction]
+fn _inspect(py: Python<'_>, folder: PathBuf) -> PyResult<(String, String, String)> {
+    let seen = py
+        .detach(|| impactmc::output::manifest::inspect(&folder))
+        .map_err(|m| input_error(m, None, Some(&folder.display().to_string()), None))?;
+    Ok((
+        seen.manifest.to_string(),
+        seen.summary.to_string(),
+        seen.text,
+    ))
+}
+
+/// Shard folders merged into the run folder `out`, as `impactmc merge`.
+#[pyfunction]
+#[pyo3(signature = (shards, out, force=false, allow_partial=false))]
+fn _merge(
+    py: Python<'_>,
+    shards: Vec<PathBuf>,
+    out: PathBuf,
+    force: bool,
+    allow_partial: bool,
+) -> PyResult<PyResult_> {
+    prepare_dir(&out, force).map_err(|e| output_error(e, "out"))?;
+    let study = py
+        .detach(|| {
+            let mut s = study::merge_study(&shards, allow_partial, &out)?;
+            s.write()?;
+            Ok::<_, StudyError>(s)
+        })
+        .map_err(study_error)?;
+    Ok(PyResult_ { study })
+}
+
 /// A scene: its TOML text, validated (every sweep point) when made.
 #[pyclass(module = "impactmc._impactmc", frozen, name = "Scene")]
 struct PyScene {
@@ -581,5 +616,7 @@ fn _impactmc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyResult_>()?;
     m.add_class::<Table>()?;
     m.add_function(wrap_pyfunction!(_solve, m)?)?;
+    m.add_function(wrap_pyfunction!(_inspect, m)?)?;
+    m.add_function(wrap_pyfunction!(_merge, m)?)?;
     Ok(())
 }

@@ -109,10 +109,28 @@ def test_the_same_seed_gives_the_same_rows_whatever_the_threads(repo):
     assert strip_timing(c.summary) != strip_timing(a.summary)
 
 
-def test_shards_cover_the_run(repo):
+def test_shards_merge_into_the_whole_run(repo, tmp_path):
     scene = impactmc.Scene.from_toml(repo / "configs/floor.toml")
     whole = scene.run(samples=200_000, progress=False).summary
-    first = scene.run(samples=200_000, shard=(0, 2), progress=False).summary
-    second = scene.run(samples=200_000, shard="1/2", progress=False).summary
+    first = scene.run(samples=200_000, shard=(0, 2), out=tmp_path / "a", progress=False)
+    second = scene.run(samples=200_000, shard="1/2", out=tmp_path / "b", progress=False)
     n = lambda s: s["laws"]["newton"]["groups"]["all"]["samples"]
-    assert n(first) + n(second) == n(whole)
+    assert n(first.summary) + n(second.summary) == n(whole)
+    merged = impactmc.merge([tmp_path / "b", tmp_path / "a"], tmp_path / "m")
+    assert strip_timing(merged.summary) == strip_timing(whole)
+    seen = impactmc.inspect(tmp_path / "m")
+    assert strip_timing(seen["summary"]) == strip_timing(whole)
+    assert seen["manifest"]["merge"] and "floor" in seen["text"]
+    with pytest.raises(impactmc.InputError):
+        impactmc.inspect(tmp_path / "nothing-here")
+
+
+def test_a_sweep_gives_one_summary_per_point(repo):
+    result = impactmc.Scene.from_toml(repo / "configs/sweep_aspect_ratio.toml").run(
+        samples=2_000, per_sample=True, progress=False
+    )
+    points = result.points
+    assert len(points) == len(result.summary["points"]) > 1
+    assert all(values for values, _ in points)
+    rows = result.samples().to_polars()
+    assert sorted(rows["point"].unique().to_list()) == list(range(len(points)))

@@ -262,3 +262,56 @@ mod tests {
         assert_eq!(utc_string(UNIX_EPOCH), "1970-01-01T00:00:00Z");
     }
 }
+
+/// A finished run folder read back: its manifest and summary (as JSON) and
+/// the text `impactmc inspect` prints.
+#[derive(Debug, Clone)]
+pub struct Inspection {
+    pub manifest: serde_json::Value,
+    pub summary: serde_json::Value,
+    pub text: String,
+}
+
+/// Reads a finished run folder (`impactmc inspect`); the error names the
+/// file and says what is wrong with it.
+pub fn inspect(dir: &std::path::Path) -> Result<Inspection, String> {
+    use crate::output::summary::Summary;
+    let read = |name: &str| -> Result<serde_json::Value, String> {
+        let path = dir.join(name);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            format!(
+                "{}: {e} (not a finished impactmc run folder: manifest.json is written last)",
+                path.display()
+            )
+        })?;
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let manifest = read("manifest.json")?;
+    let summary = read("summary.json")?;
+    let head: ManifestHead = serde_json::from_value(manifest.clone())
+        .map_err(|e| format!("{}: {e}", dir.join("manifest.json").display()))?;
+    let mut text = head.text(dir);
+    let bad_summary = |e: serde_json::Error| format!("summary.json: {e}");
+    let summaries: Vec<(String, Summary)> = match summary.get("points").and_then(|p| p.as_array()) {
+        Some(points) => points
+            .iter()
+            .map(|p| {
+                let s = serde_json::from_value(p["summary"].clone()).map_err(bad_summary)?;
+                Ok((format!("\n=== sweep point {} ===\n", p["values"]), s))
+            })
+            .collect::<Result<_, String>>()?,
+        None => vec![(
+            String::from("\n"),
+            serde_json::from_value(summary.clone()).map_err(bad_summary)?,
+        )],
+    };
+    for (head, s) in summaries {
+        text.push_str(&head);
+        text.push_str(&s.to_text());
+    }
+    Ok(Inspection {
+        manifest,
+        summary,
+        text,
+    })
+}
