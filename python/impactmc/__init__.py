@@ -27,6 +27,7 @@ from ._impactmc import InputError, OutputExistsError, Table
 
 __all__ = [
     "InputError",
+    "accuracy",
     "inspect",
     "merge",
     "OutputExistsError",
@@ -81,6 +82,17 @@ def merge(shards: Iterable[PathLike], out: PathLike, force: bool = False,
     ``out``, as ``impactmc merge``: the statistics of the whole run."""
     return Result(_impactmc._merge([os.fspath(s) for s in shards], os.fspath(out), force,
                                    allow_partial))
+
+
+def accuracy(scene: "Scene", out: Optional[PathLike] = None, force: bool = False) -> str:
+    """The scene's accuracy ladder (its ``[accuracy]`` and ``[material]``
+    knobs), as ``impactmc accuracy``: writes ``accuracy.parquet``,
+    ``accuracy.md`` and ``accuracy.svg`` into ``out`` (default
+    ``results/<name>-accuracy``) and returns the markdown. It runs for
+    minutes and, unlike a run, is not stopped by Ctrl-C."""
+    if out is None:
+        out = os.path.join("results", f"{scene.name}-accuracy")
+    return _impactmc._accuracy(scene._inner, os.fspath(out), force)
 
 
 def _json(value: Any) -> str:

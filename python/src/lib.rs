@@ -130,6 +130,22 @@ fn _merge(
     Ok(PyResult_ { study })
 }
 
+/// The accuracy ladder of a scene (its `[accuracy]` knobs), written as a
+/// folder as `impactmc accuracy` writes it; returns the markdown.
+#[pyfunction]
+#[pyo3(signature = (scene, out, force=false))]
+fn _accuracy(py: Python<'_>, scene: &PyScene, out: PathBuf, force: bool) -> PyResult<String> {
+    let src = scene.src.clone();
+    let base = src.scene(&Overrides::default()).map_err(scene_error)?;
+    impactmc::accuracy::Knobs::from_raw(&src.file, base.raw()).map_err(scene_error)?;
+    prepare_dir(&out, force).map_err(|e| output_error(e, "out"))?;
+    py.detach(|| {
+        let ladder = impactmc::accuracy::ladder_of(&src, &mut |_| {}).map_err(scene_error)?;
+        impactmc::accuracy::write_folder(&ladder, Path::new(&src.file), &out)
+            .map_err(|e| PyRuntimeError::new_err(message_chain(&e)))
+    })
+}
+
 /// A scene: its TOML text, validated (every sweep point) when made.
 #[pyclass(module = "impactmc._impactmc", frozen, name = "Scene")]
 struct PyScene {
@@ -618,5 +634,6 @@ fn _impactmc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_solve, m)?)?;
     m.add_function(wrap_pyfunction!(_inspect, m)?)?;
     m.add_function(wrap_pyfunction!(_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(_accuracy, m)?)?;
     Ok(())
 }

@@ -134,3 +134,26 @@ def test_a_sweep_gives_one_summary_per_point(repo):
     assert all(values for values, _ in points)
     rows = result.samples().to_polars()
     assert sorted(rows["point"].unique().to_list()) == list(range(len(points)))
+
+
+def test_the_accuracy_ladder_writes_the_cli_folder(repo, tmp_path):
+    pl = pytest.importorskip("polars")
+    scene = impactmc.Scene.from_toml(repo / "configs/accuracy_corner3.toml").replace(
+        accuracy={
+            "samples": 40,
+            "compliant_steps": [12, 25],
+            "reference_steps": 100,
+            "pgs_sweeps": [1],
+            "sample_counts": [1000],
+            "timing_samples": 2000,
+        }
+    )
+    md = impactmc.accuracy(scene, out=tmp_path / "acc")
+    assert "| newton |" in md
+    table = pl.read_parquet(tmp_path / "acc" / "accuracy.parquet")
+    assert table.height > 3
+    assert (tmp_path / "acc" / "accuracy.md").read_text().endswith(md[-200:])
+    with pytest.raises(impactmc.OutputExistsError):
+        impactmc.accuracy(scene, out=tmp_path / "acc")
+    with pytest.raises(impactmc.InputError):
+        impactmc.accuracy(scene.replace(accuracy={"samples": -3}), out=tmp_path / "bad")

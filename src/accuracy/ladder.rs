@@ -6,40 +6,37 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use crate::config::{load_scene, parse_law, Overrides, Placement, Precision, Scene, SceneError};
+use crate::config::{parse_law, Overrides, Placement, Precision, Scene, SceneError, SceneText};
 use crate::engine::{evaluate_samples, run, RunOptions};
 use crate::physics::{support_point_lagrange, ContactGeometry, Law, Pose, State};
 
 use super::*;
 
 fn variant(
-    path: &Path,
+    src: &SceneText,
     laws: Vec<String>,
     precision: Precision,
     samples: u64,
 ) -> Result<Scene, SceneError> {
-    load_scene(
-        path,
-        &Overrides {
-            laws: Some(laws),
-            precision: Some(precision),
-            samples: Some(samples),
-            ..Default::default()
-        },
-    )
+    src.scene(&Overrides {
+        laws: Some(laws),
+        precision: Some(precision),
+        samples: Some(samples),
+        ..Default::default()
+    })
 }
 
 /// Nanoseconds per sample of an end-to-end run on one thread, of
 /// `accuracy.timing_samples` samples, or of fewer when that would take more
 /// than about [`TIMING_BUDGET_S`] (a probe of 1 000 samples decides).
 fn timed_run(
-    path: &Path,
+    src: &SceneText,
     law: &str,
     precision: Precision,
     knobs: &Knobs,
 ) -> Result<f64, SceneError> {
     let one = |samples: u64| -> Result<f64, SceneError> {
-        let scene = variant(path, vec![law.to_string()], precision, samples)?;
+        let scene = variant(src, vec![law.to_string()], precision, samples)?;
         let r = run(
             &scene,
             &RunOptions {
@@ -70,8 +67,13 @@ const TIMING_BUDGET_S: f64 = 5.0;
 /// rungs add regularised Coulomb, and with one touching plane `stronge`
 /// joins as a rung and as a second rigid reference (`vs_stronge`).
 pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
-    let file = path.display().to_string();
-    let base = load_scene(path, &Overrides::default())?;
+    ladder_of(&SceneText::read(path)?, progress)
+}
+
+/// [`ladder`] of scene text (the file it names is only for errors).
+pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
+    let file = src.file.clone();
+    let base = src.scene(&Overrides::default())?;
     let knobs = Knobs::from_raw(&file, base.raw())?;
     // The ladder's body by the kind of scene: flights for a drop.
     if let Placement::Drop(start) = base.placement() {
@@ -81,7 +83,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     let touching = base.touching_planes();
     let rough = touching.iter().any(|p| p.friction() > 0.0);
     let with_stronge = rough && touching.len() == 1;
-    let newton64 = variant(path, vec!["newton".into()], Precision::F64, 1)?;
+    let newton64 = variant(src, vec!["newton".into()], Precision::F64, 1)?;
     let reference_outcomes = evaluate_samples(&newton64, Law::Newton, 0, n);
     let inputs: Vec<(Pose, State)> = reference_outcomes
         .iter()
@@ -89,7 +91,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         .collect();
     let newton_posts: Vec<Post> = reference_outcomes.iter().map(post_of).collect();
     let stronge_posts: Option<Vec<Post>> = if with_stronge {
-        let scene = variant(path, vec!["stronge".into()], Precision::F64, 1)?;
+        let scene = variant(src, vec!["stronge".into()], Precision::F64, 1)?;
         Some(
             evaluate_samples(&scene, Law::Stronge, 0, n)
                 .iter()
@@ -138,12 +140,12 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     }
     for name in &laws {
         let law = parse_law(name).expect("ladder law names are valid");
-        let scene = variant(path, vec![name.clone()], Precision::F64, 1)?;
+        let scene = variant(src, vec![name.clone()], Precision::F64, 1)?;
         let posts: Vec<Post> = evaluate_samples(&scene, law, 0, n)
             .iter()
             .map(post_of)
             .collect();
-        let ns = timed_run(path, name, Precision::F64, &knobs)?;
+        let ns = timed_run(src, name, Precision::F64, &knobs)?;
         progress(&format!("law {name}: {ns:.1} ns/sample"));
         rungs.push(judged(Rung::new("law", name, "f64", ns), &posts));
     }
@@ -161,12 +163,12 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
         ));
     }
     {
-        let scene = variant(path, vec!["newton".into()], Precision::F32, 1)?;
+        let scene = variant(src, vec!["newton".into()], Precision::F32, 1)?;
         let posts: Vec<Post> = evaluate_samples(&scene, Law::Newton, 0, n)
             .iter()
             .map(post_of)
             .collect();
-        let ns = timed_run(path, "newton", Precision::F32, &knobs)?;
+        let ns = timed_run(src, "newton", Precision::F32, &knobs)?;
         progress(&format!("newton f32: {ns:.1} ns/sample"));
         rungs.push(judged(Rung::new("precision", "newton", "f32", ns), &posts));
     }
@@ -175,12 +177,7 @@ pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, Sce
     let law_for_counts = base.laws()[0].name();
     let mut counts = Vec::new();
     for &samples in &knobs.sample_counts {
-        let scene = variant(
-            path,
-            vec![law_for_counts.clone()],
-            base.precision(),
-            samples,
-        )?;
+        let scene = variant(src, vec![law_for_counts.clone()], base.precision(), samples)?;
         let r = run(&scene, &RunOptions::default()).expect("thread pool");
         let m = &r.acc.laws[0].energy_ratio.moments;
         progress(&format!(

@@ -16,7 +16,7 @@ mod ladder;
 mod report;
 
 pub use flight::flight_ladder;
-pub use ladder::{contact_point_rungs, ladder};
+pub use ladder::{contact_point_rungs, ladder, ladder_of};
 pub use report::{plot_svg, write_folder};
 
 use std::time::Instant;
