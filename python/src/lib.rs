@@ -373,7 +373,6 @@ impl PyScene {
         };
         // Bad input fails here, before any work or any folder.
         let (_, points) = plan_text(&self.src, &overrides).map_err(scene_error)?;
-        study::prepare(&self.src, &overrides, &opts).map_err(study_error)?;
         let total: u64 = points
             .iter()
             .map(|p| match shard {

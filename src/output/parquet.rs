@@ -404,21 +404,20 @@ impl ArrowTable {
         polars::prelude::ParquetWriter::new(&mut buffer)
             .finish(df)
             .map_err(|e| ParquetError::External(Box::new(e)))?;
-        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
-            bytes::Bytes::from(buffer),
-        )?
-        .build()?;
-        let schema = reader.schema();
-        let batches = reader
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| ParquetError::External(Box::new(e)))?;
-        Ok(Self { schema, batches })
+        Self::of_parquet(bytes::Bytes::from(buffer))
     }
 
     /// A Parquet file's rows (`samples.parquet` of a run folder).
     pub fn read(path: &Path) -> Result<Self, ParquetError> {
         let file = std::fs::File::open(path).map_err(|e| ParquetError::External(Box::new(e)))?;
-        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)?
+        Self::of_parquet(file)
+    }
+
+    /// Every row of Parquet data, as record batches.
+    fn of_parquet<R: parquet::file::reader::ChunkReader + 'static>(
+        data: R,
+    ) -> Result<Self, ParquetError> {
+        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(data)?
             .build()?;
         let schema = reader.schema();
         let batches = reader
