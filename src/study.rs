@@ -15,7 +15,7 @@ use serde_json::json;
 use crate::config::sweep::{plan_text, Axis};
 use crate::config::RawScene;
 use crate::config::{Overrides, Precision, Scene, SceneError, SceneText};
-use crate::engine::{run_with_samples, RunError, RunOptions, SinkError};
+use crate::engine::{run_with_samples, samples_run, RunError, RunOptions, SinkError, Watch};
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
 use crate::output::parquet::{ArrowTable, Compression, MemoryRows, SamplesWriter, WriteOptions};
 use crate::output::plots::run_plots;
@@ -195,6 +195,14 @@ pub fn run_study(
         sample_floats: writer.as_ref().map(Rows::float_mask),
         ..opts.clone()
     };
+    if let Some(w) = &opts.watch {
+        w.set_total(
+            points
+                .iter()
+                .map(|p| samples_run(&p.scene, opts.shard))
+                .sum(),
+        );
+    }
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();
@@ -247,7 +255,13 @@ pub fn run_study(
 
 /// Merges shard folders into a study with the outputs of a single run (see
 /// [`crate::output::shard`]). The scene is the shards' own `scene.toml`.
-pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<Study, StudyError> {
+/// A `watch` counts the shards read and can stop the merge between them.
+pub fn merge_study(
+    dirs: &[PathBuf],
+    allow_partial: bool,
+    dir: &Path,
+    watch: Option<&Watch>,
+) -> Result<Study, StudyError> {
     let started = SystemTime::now();
     let checked = check(dirs, allow_partial)?;
     let first = &checked.shards[0];
@@ -273,8 +287,17 @@ pub fn merge_study(dirs: &[PathBuf], allow_partial: bool, dir: &Path) -> Result<
     let mut wall = vec![0.0; points.len()];
     let mut cpu: Vec<Option<f64>> = vec![Some(0.0); points.len()];
     let shapes: Vec<Shape> = points.iter().map(|p| Shape::of(&p.scene)).collect();
+    if let Some(w) = watch {
+        w.set_total(checked.shards.len() as u64);
+    }
     for s in &checked.shards {
+        if watch.is_some_and(|w| w.cancelled()) {
+            return Err(RunError::Cancelled.into());
+        }
         let per_point = read_nodes(&s.dir, &shapes)?;
+        if let Some(w) = watch {
+            w.advance(1);
+        }
         for (k, n) in per_point.into_iter().enumerate() {
             nodes[k].extend(n);
             wall[k] += s.info.wall_seconds.get(k).copied().unwrap_or(0.0);
@@ -404,14 +427,19 @@ impl Study {
 
     /// The terminal summary.
     pub fn text(&self) -> String {
+        (0..self.points.len()).map(|i| self.point_text(i)).collect()
+    }
+
+    /// The terminal summary of grid point `i` (headed by its swept values
+    /// in a sweep).
+    pub fn point_text(&self, i: usize) -> String {
+        let p = &self.points[i];
         let mut s = String::new();
-        for p in &self.points {
-            if !p.values.is_empty() {
-                let v: Vec<String> = p.values.iter().map(|(k, x)| format!("{k} = {x}")).collect();
-                s.push_str(&format!("\n=== sweep point: {} ===\n", v.join(", ")));
-            }
-            s.push_str(&p.summary.to_text());
+        if !p.values.is_empty() {
+            let v: Vec<String> = p.values.iter().map(|(k, x)| format!("{k} = {x}")).collect();
+            s.push_str(&format!("\n=== sweep point: {} ===\n", v.join(", ")));
         }
+        s.push_str(&p.summary.to_text());
         s
     }
 

@@ -77,22 +77,37 @@ def inspect(folder: PathLike) -> dict:
 
 
 def merge(shards: Iterable[PathLike], out: PathLike, force: bool = False,
-          allow_partial: bool = False) -> "Result":
+          allow_partial: bool = False, progress: Progress = True) -> "Result":
     """Shard folders (runs with ``shard=``) merged into the run folder
-    ``out``, as ``impactmc merge``: the statistics of the whole run."""
-    return Result(_impactmc._merge([os.fspath(s) for s in shards], os.fspath(out), force,
-                                   allow_partial))
+    ``out``, as ``impactmc merge``: the statistics of the whole run.
+    ``progress`` counts the shards read, as :meth:`Scene.run` counts
+    samples; Ctrl-C stops the merge before its next shard, and nothing is
+    written."""
+    callback, close = _progress(progress, "shards")
+    try:
+        inner = _impactmc._merge([os.fspath(s) for s in shards], os.fspath(out), force,
+                                 allow_partial, callback)
+    finally:
+        close()
+    return Result(inner)
 
 
-def accuracy(scene: "Scene", out: Optional[PathLike] = None, force: bool = False) -> str:
+def accuracy(scene: "Scene", out: Optional[PathLike] = None, force: bool = False,
+             progress: Progress = True) -> str:
     """The scene's accuracy ladder (its ``[accuracy]`` and ``[material]``
     knobs), as ``impactmc accuracy``: writes ``accuracy.parquet``,
     ``accuracy.md`` and ``accuracy.svg`` into ``out`` (default
     ``results/<name>-accuracy``) and returns the markdown. It runs for
-    minutes and, unlike a run, is not stopped by Ctrl-C."""
+    minutes; ``progress`` counts its steps (one per rung, each up to a few
+    seconds), as :meth:`Scene.run` counts samples, and Ctrl-C stops it
+    before its next step, with nothing written."""
     if out is None:
         out = os.path.join("results", f"{scene.name}-accuracy")
-    return _impactmc._accuracy(scene._inner, os.fspath(out), force)
+    callback, close = _progress(progress, "steps")
+    try:
+        return _impactmc._accuracy(scene._inner, os.fspath(out), force, callback)
+    finally:
+        close()
 
 
 def _json(value: Any) -> str:
@@ -178,14 +193,19 @@ class Result:
         return None if text is None else json.loads(text)
 
     @property
+    def values(self) -> Optional[dict]:
+        """A grid point's swept values, field path to value (``{}`` for a
+        run without a sweep; None for the whole of a sweep)."""
+        values = self._inner.values
+        return None if values is None else dict(values)
+
+    @property
     def points(self) -> list:
-        """A sweep's grid points: ``(values, summary)`` per point, the
-        values a dict of field path to value. A run without a sweep is one
-        point with no values."""
-        s = self.summary
-        if "points" not in s:
-            return [({}, s)]
-        return [(p["values"], p["summary"]) for p in s["points"]]
+        """One :class:`Result` per grid point of a sweep, in grid order,
+        each with its ``values``, ``summary``, ``text``, tables and
+        per-sample rows (slices of the run's, not copies). A run without
+        a sweep has one point."""
+        return [Result(p) for p in self._inner._points()]
 
     @property
     def table_names(self) -> list:
@@ -195,12 +215,13 @@ class Result:
 
     def table(self, name: str) -> Table:
         """A table by name, with the columns of its Parquet file in a run
-        folder."""
+        folder (a grid point's rows of it, for a point)."""
         return self._inner.table(name)
 
     def samples(self) -> Table:
         """The per-sample rows of a run with ``per_sample=True``, with the
-        columns of ``samples.parquet``."""
+        columns of ``samples.parquet`` (a grid point's rows, for a
+        point)."""
         return self._inner.samples()
 
     def __repr__(self) -> str:
@@ -296,7 +317,7 @@ class Scene:
         """
         if isinstance(shard, (tuple, list)):
             shard = f"{shard[0]}/{shard[1]}"
-        callback, close = _progress(progress)
+        callback, close = _progress(progress, "samples")
         try:
             inner = self._inner._run(
                 samples=samples,
@@ -317,8 +338,9 @@ class Scene:
         return repr(self._inner)
 
 
-def _progress(progress: Progress):
-    """The callback for a run's progress, and what closes it."""
+def _progress(progress: Progress, unit: str):
+    """The callback for the progress of a run (in samples), a merge (in
+    shards) or a ladder (in steps), and what closes it."""
     if callable(progress):
         return progress, lambda: None
     if not progress:
@@ -332,7 +354,7 @@ def _progress(progress: Progress):
     def update(done: int, total: int) -> None:
         nonlocal bar
         if bar is None:
-            bar = tqdm(total=total, unit="samples", unit_scale=True, leave=False)
+            bar = tqdm(total=total, unit=unit, unit_scale=unit == "samples", leave=False)
         bar.update(done - bar.n)
 
     def close() -> None:

@@ -6,7 +6,7 @@
 //! wakes every 100 ms for Ctrl-C and the progress callback).
 
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
 use arrow_array::ffi_stream::FFI_ArrowArrayStream;
@@ -16,6 +16,7 @@ use pyo3::exceptions::{PyFileExistsError, PyKeyError, PyRuntimeError, PyValueErr
 use pyo3::prelude::*;
 use pyo3::types::PyCapsule;
 
+use impactmc::accuracy::{LadderError, Steps};
 use impactmc::config::case::solve_text;
 use impactmc::config::sweep::plan_text;
 use impactmc::config::{Overrides, SceneError, SceneText};
@@ -109,41 +110,125 @@ fn _inspect(py: Python<'_>, folder: PathBuf) -> PyResult<(String, String, String
     ))
 }
 
+/// Runs `work` on its own thread while this thread waits without the GIL,
+/// waking about every 100 ms to check for Ctrl-C and to call
+/// `callback(done, total)` with the watch's counts (once the work has said
+/// its total, and once more at the end). Ctrl-C, or an exception in the callback, cancels the work
+/// through the watch; this waits for it to stop, then raises that.
+fn watched<T: Send + 'static>(
+    py: Python<'_>,
+    watch: &Watch,
+    callback: Option<&Py<PyAny>>,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    let (tx, rx) = mpsc::channel();
+    // Waited on without the GIL, which asks for Sync.
+    let rx = std::sync::Mutex::new(rx);
+    let wait = |timeout: Option<Duration>| {
+        let rx = rx.lock().expect("one waiter");
+        match timeout {
+            Some(t) => rx.recv_timeout(t),
+            None => rx.recv().map_err(|_| mpsc::RecvTimeoutError::Disconnected),
+        }
+    };
+    let worker = std::thread::Builder::new()
+        .name("impactmc-work".into())
+        .spawn(move || {
+            let _ = tx.send(work());
+        })
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    let finish = |py: Python<'_>| {
+        let _ = py.detach(|| worker.join());
+    };
+    loop {
+        match py.detach(|| wait(Some(Duration::from_millis(100)))) {
+            Ok(out) => {
+                finish(py);
+                // The last count, so that a bar ends where the work did.
+                if let Some(cb) = callback.filter(|_| watch.total() > 0) {
+                    cb.call1(py, (watch.done(), watch.total()))?;
+                }
+                return Ok(out);
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                finish(py);
+                return Err(PyRuntimeError::new_err(
+                    "the work's thread ended without a result",
+                ));
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        let checked = py.check_signals().and_then(|()| match callback {
+            Some(cb) if watch.total() > 0 => {
+                cb.call1(py, (watch.done(), watch.total())).map(|_| ())
+            }
+            _ => Ok(()),
+        });
+        if let Err(e) = checked {
+            watch.cancel();
+            // The work stops at its next check; nothing is written.
+            let _ = py.detach(|| wait(None));
+            finish(py);
+            return Err(e);
+        }
+    }
+}
+
 /// Shard folders merged into the run folder `out`, as `impactmc merge`.
+/// `callback(done, total)` counts the shards read.
 #[pyfunction]
-#[pyo3(signature = (shards, out, force=false, allow_partial=false))]
+#[pyo3(signature = (shards, out, force=false, allow_partial=false, callback=None))]
 fn _merge(
     py: Python<'_>,
     shards: Vec<PathBuf>,
     out: PathBuf,
     force: bool,
     allow_partial: bool,
+    callback: Option<Py<PyAny>>,
 ) -> PyResult<PyResult_> {
     prepare_dir(&out, force).map_err(|e| output_error(e, "out"))?;
-    let study = py
-        .detach(|| {
-            let mut s = study::merge_study(&shards, allow_partial, &out)?;
-            s.write()?;
-            Ok::<_, StudyError>(s)
-        })
-        .map_err(study_error)?;
-    Ok(PyResult_ { study })
+    let watch = Watch::new();
+    let w = watch.clone();
+    let study = watched(py, &watch, callback.as_ref(), move || {
+        let mut s = study::merge_study(&shards, allow_partial, &out, Some(&w))?;
+        s.write()?;
+        Ok::<_, StudyError>(s)
+    })?
+    .map_err(study_error)?;
+    Ok(PyResult_::whole(study))
 }
 
 /// The accuracy ladder of a scene (its `[accuracy]` knobs), written as a
 /// folder as `impactmc accuracy` writes it; returns the markdown.
+/// `callback(done, total)` counts the ladder's steps.
 #[pyfunction]
-#[pyo3(signature = (scene, out, force=false))]
-fn _accuracy(py: Python<'_>, scene: &PyScene, out: PathBuf, force: bool) -> PyResult<String> {
+#[pyo3(signature = (scene, out, force=false, callback=None))]
+fn _accuracy(
+    py: Python<'_>,
+    scene: &PyScene,
+    out: PathBuf,
+    force: bool,
+    callback: Option<Py<PyAny>>,
+) -> PyResult<String> {
     let src = scene.src.clone();
     let base = src.scene(&Overrides::default()).map_err(scene_error)?;
     impactmc::accuracy::Knobs::from_raw(&src.file, base.raw()).map_err(scene_error)?;
     prepare_dir(&out, force).map_err(|e| output_error(e, "out"))?;
-    py.detach(|| {
-        let ladder = impactmc::accuracy::ladder_of(&src, &mut |_| {}).map_err(scene_error)?;
+    let watch = Watch::new();
+    let w = watch.clone();
+    watched(py, &watch, callback.as_ref(), move || {
+        let mut quiet = |_: &str| {};
+        let ladder =
+            match impactmc::accuracy::ladder_of(&src, &mut Steps::new(&mut quiet, Some(&w))) {
+                Ok(l) => l,
+                Err(LadderError::Scene(e)) => return Err(scene_error(e)),
+                Err(LadderError::Cancelled) => {
+                    return Err(PyRuntimeError::new_err("the accuracy ladder was cancelled"))
+                }
+            };
         impactmc::accuracy::write_folder(&ladder, Path::new(&src.file), &out)
             .map_err(|e| PyRuntimeError::new_err(message_chain(&e)))
-    })
+    })?
 }
 
 /// A scene: its TOML text, validated (every sweep point) when made.
@@ -372,76 +457,20 @@ impl PyScene {
             ..Default::default()
         };
         // Bad input fails here, before any work or any folder.
-        let (_, points) = plan_text(&self.src, &overrides).map_err(scene_error)?;
-        let total: u64 = points
-            .iter()
-            .map(|p| match shard {
-                Some(s) => {
-                    let batch = p.scene.batch_size();
-                    let r = s.batches(p.scene.samples().div_ceil(batch));
-                    (r.end * batch).min(p.scene.samples())
-                        - (r.start * batch).min(p.scene.samples())
-                }
-                None => p.scene.samples(),
-            })
-            .sum();
+        plan_text(&self.src, &overrides).map_err(scene_error)?;
         if let Some(dir) = &out {
             prepare_dir(dir, force).map_err(|e| output_error(e, "out"))?;
         }
-        let (tx, rx) = mpsc::channel();
-        // Waited on without the GIL, which asks for Sync.
-        let rx = std::sync::Mutex::new(rx);
-        let wait = |timeout: Option<Duration>| {
-            let rx = rx.lock().expect("one waiter");
-            match timeout {
-                Some(t) => rx.recv_timeout(t),
-                None => rx.recv().map_err(|_| mpsc::RecvTimeoutError::Disconnected),
-            }
-        };
         let src = self.src.clone();
-        let worker = std::thread::Builder::new()
-            .name("impactmc-run".into())
-            .spawn(move || {
-                let result =
-                    study::run(&src, &overrides, &opts, out.as_deref()).and_then(|mut s| {
-                        if s.dir().is_some() {
-                            s.write()?;
-                        }
-                        Ok(s)
-                    });
-                let _ = tx.send(result);
-            })
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        let finish = |py: Python<'_>| {
-            let _ = py.detach(|| worker.join());
-        };
-        loop {
-            match py.detach(|| wait(Some(Duration::from_millis(100)))) {
-                Ok(result) => {
-                    finish(py);
-                    let study = result.map_err(study_error)?;
-                    return Ok(PyResult_ { study });
-                }
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    finish(py);
-                    return Err(PyRuntimeError::new_err(
-                        "the run's thread ended without a result",
-                    ));
-                }
-                Err(mpsc::RecvTimeoutError::Timeout) => {}
+        let study = watched(py, &watch, callback.as_ref(), move || {
+            let mut s = study::run(&src, &overrides, &opts, out.as_deref())?;
+            if s.dir().is_some() {
+                s.write()?;
             }
-            let checked = py.check_signals().and_then(|()| match &callback {
-                Some(cb) => cb.call1(py, (watch.done(), total)).map(|_| ()),
-                None => Ok(()),
-            });
-            if let Err(e) = checked {
-                watch.cancel();
-                // The run stops at its next batch; its folder is not written.
-                let _ = py.detach(|| wait(None));
-                finish(py);
-                return Err(e);
-            }
-        }
+            Ok(s)
+        })?
+        .map_err(study_error)?;
+        Ok(PyResult_::whole(study))
     }
 
     fn __repr__(&self) -> String {
@@ -452,23 +481,76 @@ impl PyScene {
     }
 }
 
-/// A finished run: its summary, tables and per-sample rows.
+/// A finished run, or one grid point of it: its summary, tables and
+/// per-sample rows.
 #[pyclass(module = "impactmc._impactmc", frozen, name = "Result")]
 struct PyResult_ {
-    study: Study,
+    study: Arc<Study>,
+    /// The grid point this is, or None for the whole run.
+    point: Option<usize>,
+}
+
+impl PyResult_ {
+    fn whole(study: Study) -> Self {
+        Self {
+            study: Arc::new(study),
+            point: None,
+        }
+    }
+
+    /// A table's rows of this point (all of them for the whole run).
+    fn rows_of(&self, table: ArrowTable) -> ArrowTable {
+        match self.point {
+            Some(i) => table.point(i as u32),
+            None => table,
+        }
+    }
 }
 
 #[pymethods]
 impl PyResult_ {
-    /// `summary.json`'s text (what `run --format json` prints).
-    fn _summary_json(&self) -> String {
-        self.study.summary_json().to_string()
+    /// `summary.json`'s text (what `run --format json` prints); for a grid
+    /// point, its `summary` there.
+    fn _summary_json(&self) -> PyResult<String> {
+        Ok(match self.point {
+            Some(i) => serde_json::to_string(&self.study.points[i].summary)
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?,
+            None => self.study.summary_json().to_string(),
+        })
     }
 
-    /// The terminal summary.
+    /// The terminal summary (of this point: headed by its swept values).
     #[getter]
     fn text(&self) -> String {
-        self.study.text()
+        match self.point {
+            Some(i) => self.study.point_text(i).trim_start().to_string(),
+            None => self.study.text(),
+        }
+    }
+
+    /// The swept values of a grid point (field path to value); empty for a
+    /// run without a sweep, None for the whole of a sweep.
+    #[getter]
+    fn values(&self) -> Option<Vec<(String, f64)>> {
+        match self.point {
+            Some(i) => Some(self.study.points[i].values.clone()),
+            None if self.study.is_sweep() => None,
+            None => Some(Vec::new()),
+        }
+    }
+
+    /// One result per grid point (a run without a sweep has one).
+    fn _points(&self) -> Vec<Self> {
+        let points = match self.point {
+            Some(i) => i..i + 1,
+            None => 0..self.study.points.len(),
+        };
+        points
+            .map(|i| Self {
+                study: self.study.clone(),
+                point: Some(i),
+            })
+            .collect()
     }
 
     /// The run folder, or None for a run kept in memory.
@@ -491,7 +573,8 @@ impl PyResult_ {
             .collect())
     }
 
-    /// A table by name, as its Parquet file in the run folder holds it.
+    /// A table by name, as its Parquet file in the run folder holds it (a
+    /// grid point's rows of it for a point).
     fn table(&self, py: Python<'_>, name: &str) -> PyResult<Table> {
         let file = format!("{}.parquet", name.trim_end_matches(".parquet"));
         let tables = py
@@ -509,16 +592,22 @@ impl PyResult_ {
             .ok_or_else(|| {
                 PyKeyError::new_err(format!("no table {name:?}; the run has {names}"))
             })?;
-        let table =
-            ArrowTable::of_frame(&mut df).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        Ok(Table { table })
+        let table = py
+            .detach(|| ArrowTable::of_frame(&mut df))
+            .map_err(|e| PyRuntimeError::new_err(format!("{file}: {e}")))?;
+        Ok(Table {
+            table: self.rows_of(table),
+        })
     }
 
-    /// The per-sample rows (a run with `per_sample=True`): from memory, or
-    /// read from the run folder's `samples.parquet`.
+    /// The per-sample rows (a run with `per_sample=True`; a grid point's
+    /// rows for a point): from memory, or read from the run folder's
+    /// `samples.parquet`.
     fn samples(&self, py: Python<'_>) -> PyResult<Table> {
         if let Some(t) = &self.study.samples {
-            return Ok(Table { table: t.clone() });
+            return Ok(Table {
+                table: self.rows_of(t.clone()),
+            });
         }
         match (&self.study.per_sample, self.study.dir()) {
             (Some(_), Some(dir)) => {
@@ -526,7 +615,9 @@ impl PyResult_ {
                 let table = py
                     .detach(|| ArrowTable::read(&path))
                     .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))?;
-                Ok(Table { table })
+                Ok(Table {
+                    table: self.rows_of(table),
+                })
             }
             _ => Err(PyValueError::new_err(
                 "the run kept no per-sample rows: run with per_sample=True",
@@ -546,16 +637,28 @@ impl PyResult_ {
     }
 
     fn __repr__(&self) -> String {
-        let points = self.study.points.len();
-        let samples: u64 = self.study.points.iter().map(|p| p.scene.samples()).sum();
         let place = match self.study.dir() {
             Some(d) => format!("out={:?}", d.display().to_string()),
             None => "in memory".into(),
         };
-        format!(
-            "Result(scene={:?}, points={points}, samples={samples}, {place})",
-            self.study.raw.name
-        )
+        let name = &self.study.raw.name;
+        match self.point {
+            Some(i) => {
+                let p = &self.study.points[i];
+                let values: Vec<String> =
+                    p.values.iter().map(|(k, x)| format!("{k}={x}")).collect();
+                format!(
+                    "Result(scene={name:?}, point={i}, values={{{}}}, samples={}, {place})",
+                    values.join(", "),
+                    p.scene.samples()
+                )
+            }
+            None => {
+                let points = self.study.points.len();
+                let samples: u64 = self.study.points.iter().map(|p| p.scene.samples()).sum();
+                format!("Result(scene={name:?}, points={points}, samples={samples}, {place})")
+            }
+        }
     }
 }
 

@@ -126,7 +126,9 @@ def test_progress_reaches_the_callback():
     assert seen, "no progress reported"
     assert all(total == 100_000_000 for _, total in seen)
     dones = [d for d, _ in seen]
-    assert dones == sorted(dones) and dones[-1] <= 100_000_000
+    assert dones == sorted(dones)
+    # The last call comes when the run has ended.
+    assert seen[-1] == (100_000_000, 100_000_000)
 
 
 def test_an_exception_in_the_callback_stops_the_run():
@@ -150,6 +152,23 @@ def test_ctrl_c_stops_a_run_within_about_a_second():
         # About a minute of work on two cores.
         s.run(samples=10_000_000_000, progress=False)
     assert time.perf_counter() - t0 < 2.0
+
+
+def test_ctrl_c_stops_the_accuracy_ladder_at_the_end_of_a_step(repo, tmp_path):
+    # 20 steps, none over about a second but the last (about 8 s on two
+    # cores): about 15 s in all.
+    scene = impactmc.Scene.from_toml(repo / "configs/accuracy_corner3.toml").replace(
+        accuracy={"samples": 200, "sample_counts": [1000, 1_000_000_000]}
+    )
+    seen = []
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        impactmc.accuracy(scene, out=tmp_path / "acc", progress=lambda *c: seen.append(c))
+    assert time.perf_counter() - t0 < 5.0
+    assert not seen or seen[-1][0] < seen[-1][1]
+    assert list((tmp_path / "acc").iterdir()) == []
 
 
 def test_solve_equals_the_cli(repo, cli):

@@ -116,8 +116,11 @@ def test_shards_merge_into_the_whole_run(repo, tmp_path):
     second = scene.run(samples=200_000, shard="1/2", out=tmp_path / "b", progress=False)
     n = lambda s: s["laws"]["newton"]["groups"]["all"]["samples"]
     assert n(first.summary) + n(second.summary) == n(whole)
-    merged = impactmc.merge([tmp_path / "b", tmp_path / "a"], tmp_path / "m")
+    seen = []
+    merged = impactmc.merge([tmp_path / "b", tmp_path / "a"], tmp_path / "m",
+                            progress=lambda *c: seen.append(c))
     assert strip_timing(merged.summary) == strip_timing(whole)
+    assert seen[-1] == (2, 2)
     seen = impactmc.inspect(tmp_path / "m")
     assert strip_timing(seen["summary"]) == strip_timing(whole)
     assert seen["manifest"]["merge"] and "floor" in seen["text"]
@@ -125,15 +128,44 @@ def test_shards_merge_into_the_whole_run(repo, tmp_path):
         impactmc.inspect(tmp_path / "nothing-here")
 
 
-def test_a_sweep_gives_one_summary_per_point(repo):
-    result = impactmc.Scene.from_toml(repo / "configs/sweep_aspect_ratio.toml").run(
-        samples=2_000, per_sample=True, progress=False
-    )
+def test_a_sweep_gives_one_result_per_point(repo, cli_summary, tmp_path):
+    pl = pytest.importorskip("polars")
+    path = repo / "configs/sweep_aspect_ratio.toml"
+    result = impactmc.Scene.from_toml(path).run(samples=2_000, per_sample=True, progress=False)
+    want = cli_summary(str(path), "--samples", "2000")["points"]
     points = result.points
-    assert len(points) == len(result.summary["points"]) > 1
-    assert all(values for values, _ in points)
+    assert result.values is None
+    assert len(points) == len(want) > 1
     rows = result.samples().to_polars()
-    assert sorted(rows["point"].unique().to_list()) == list(range(len(points)))
+    summary = result.table("summary").to_polars()
+    # The same run written to a folder: its rows come back from the file,
+    # in the reader's batches, not the run's.
+    folder = impactmc.Scene.from_toml(path).run(samples=2_000, per_sample=True,
+                                                out=tmp_path / "run", progress=False)
+    for i, (point, on_disk, cli) in enumerate(zip(points, folder.points, want)):
+        assert point.values == cli["values"] and point.values
+        assert strip_timing(point.summary) == cli["summary"]
+        assert point.text.startswith("=== sweep point:") and point.text in result.text
+        assert f"point={i}" in repr(point)
+        assert len(point.points) == 1 and point.points[0].summary == point.summary
+        got = point.samples().to_polars()
+        assert got.height == 2_000
+        assert got.equals(rows.filter(pl.col("point") == i))
+        assert on_disk.samples().to_polars().equals(got)
+        assert point.table("summary").to_polars().equals(summary.filter(pl.col("point") == i))
+        assert point.out is None and on_disk.out == str(tmp_path / "run")
+
+
+def test_a_run_without_a_sweep_is_its_one_point(repo):
+    pl = pytest.importorskip("polars")
+    result = impactmc.Scene.from_toml(repo / "configs/corner3.toml").run(
+        samples=5_000, per_sample=True, progress=False
+    )
+    assert result.values == {}
+    (point,) = result.points
+    assert point.values == {} and point.summary == result.summary
+    assert point.text == result.text.lstrip()
+    assert point.samples().to_polars().equals(result.samples().to_polars())
 
 
 def test_the_accuracy_ladder_writes_the_cli_folder(repo, tmp_path):
@@ -148,8 +180,12 @@ def test_the_accuracy_ladder_writes_the_cli_folder(repo, tmp_path):
             "timing_samples": 2000,
         }
     )
-    md = impactmc.accuracy(scene, out=tmp_path / "acc")
+    seen = []
+    md = impactmc.accuracy(scene, out=tmp_path / "acc", progress=lambda *c: seen.append(c))
     assert "| newton |" in md
+    # The reference; paper, pgs1, newton, poisson; two compliant rungs;
+    # f32; one count. The last count comes when the ladder ends.
+    assert seen and seen[-1] == (9, 9)
     table = pl.read_parquet(tmp_path / "acc" / "accuracy.parquet")
     assert table.height > 3
     assert (tmp_path / "acc" / "accuracy.md").read_text().endswith(md[-200:])

@@ -24,8 +24,10 @@ pub fn flight_ladder(
     scene: &Scene,
     start: &DropBox,
     knobs: Knobs,
-    progress: &mut dyn FnMut(&str),
-) -> Ladder {
+    steps: &mut Steps,
+) -> Result<Ladder, LadderError> {
+    // The reference, each step, each tolerance.
+    steps.begin(1 + knobs.flight_steps.len() + knobs.toi_tolerances.len())?;
     use crate::drop::{first_impact, start_of};
     let law = scene.laws()[0];
     let sampler = crate::sampler::Sampler::new(scene);
@@ -55,12 +57,13 @@ pub fn flight_ladder(
         )
     };
     let exact = Rotation::exact_for(scene.body());
-    progress(&format!(
+    steps.say(&format!(
         "flight reference: {} rotation, TOI tolerance {fine_tol:e} m, {} samples",
         exact.name(),
         knobs.samples
     ));
     let (reference, _) = run(exact, fine_tol);
+    steps.step("flight reference: done")?;
     let compare = |got: &[Option<FirstImpact>]| -> (Errors, (f64, f64)) {
         let mut a = Vec::new();
         let mut b = Vec::new();
@@ -87,10 +90,10 @@ pub fn flight_ladder(
     for &step in &knobs.flight_steps {
         let (got, ns) = run(Rotation::Rk4 { max_step: step }, default_tol);
         let (e, t) = compare(&got);
-        progress(&format!(
+        steps.step(&format!(
             "flight step {step:e} s: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
             e.v_rms
-        ));
+        ))?;
         rungs.push(Rung {
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -100,10 +103,10 @@ pub fn flight_ladder(
     for &tol in &knobs.toi_tolerances {
         let (got, ns) = run(exact, tol);
         let (e, t) = compare(&got);
-        progress(&format!(
+        steps.step(&format!(
             "TOI tolerance {tol:e} m: {ns:.0} ns/sample, v⁺ RMS error {:.2e}",
             e.v_rms
-        ));
+        ))?;
         rungs.push(Rung {
             vs_flight_reference: Some(e),
             time_error: Some(t),
@@ -115,7 +118,7 @@ pub fn flight_ladder(
             )
         });
     }
-    Ladder {
+    Ok(Ladder {
         friction: false,
         reference_unseparated: 0,
         scene: scene.name().to_string(),
@@ -123,5 +126,5 @@ pub fn flight_ladder(
         knobs,
         rungs,
         counts: Vec::new(),
-    }
+    })
 }

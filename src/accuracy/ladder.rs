@@ -66,23 +66,34 @@ const TIMING_BUDGET_S: f64 = 5.0;
 /// and `newton` (`poisson` is not defined with friction), the compliant
 /// rungs add regularised Coulomb, and with one touching plane `stronge`
 /// joins as a rung and as a second rigid reference (`vs_stronge`).
-pub fn ladder(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
-    ladder_of(&SceneText::read(path)?, progress)
+pub fn ladder(path: &Path, steps: &mut Steps) -> Result<Ladder, LadderError> {
+    ladder_of(&SceneText::read(path)?, steps)
 }
 
 /// [`ladder`] of scene text (the file it names is only for errors).
-pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladder, SceneError> {
+pub fn ladder_of(src: &SceneText, steps: &mut Steps) -> Result<Ladder, LadderError> {
     let file = src.file.clone();
     let base = src.scene(&Overrides::default())?;
     let knobs = Knobs::from_raw(&file, base.raw())?;
     // The ladder's body by the kind of scene: flights for a drop.
     if let Placement::Drop(start) = base.placement() {
-        return Ok(flight_ladder(&base, start, knobs, progress));
+        return flight_ladder(&base, start, knobs, steps);
     }
     let n = knobs.samples;
     let touching = base.touching_planes();
     let rough = touching.iter().any(|p| p.friction() > 0.0);
     let with_stronge = rough && touching.len() == 1;
+    let mut laws: Vec<String> = vec!["paper".into()];
+    laws.extend(knobs.pgs_sweeps.iter().map(|s| format!("pgs{s}")));
+    laws.push("newton".into());
+    if !rough {
+        laws.push("poisson".into());
+    }
+    if with_stronge {
+        laws.push("stronge".into());
+    }
+    // The reference, each law, each compliant step count, f32, each count.
+    steps.begin(1 + laws.len() + knobs.compliant_steps.len() + 1 + knobs.sample_counts.len())?;
     let newton64 = variant(src, vec!["newton".into()], Precision::F64, 1)?;
     let reference_outcomes = evaluate_samples(&newton64, Law::Newton, 0, n);
     let inputs: Vec<(Pose, State)> = reference_outcomes
@@ -101,7 +112,7 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
     } else {
         None
     };
-    progress(&format!(
+    steps.say(&format!(
         "reference: compliant, {} RK4 steps per contact, E* = {:e} Pa{}, {n} samples",
         knobs.reference_steps,
         knobs.effective_modulus,
@@ -116,11 +127,11 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
     ));
     let (reference, _, reference_unseparated) =
         compliant_posts(&newton64, &inputs, knobs.compliant(knobs.reference_steps));
-    if reference_unseparated > 0 {
-        progress(&format!(
-            "reference: {reference_unseparated} samples not separated within the step budget"
-        ));
-    }
+    steps.step(&if reference_unseparated > 0 {
+        format!("reference: {reference_unseparated} samples not separated within the step budget")
+    } else {
+        "reference: every sample separated".into()
+    })?;
     let judged = |mut r: Rung, posts: &[Post]| -> Rung {
         r.vs_compliant = errors(posts, &reference);
         r.vs_newton = errors(posts, &newton_posts);
@@ -128,16 +139,6 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
         r
     };
     let mut rungs = Vec::new();
-
-    let mut laws: Vec<String> = vec!["paper".into()];
-    laws.extend(knobs.pgs_sweeps.iter().map(|s| format!("pgs{s}")));
-    laws.push("newton".into());
-    if !rough {
-        laws.push("poisson".into());
-    }
-    if with_stronge {
-        laws.push("stronge".into());
-    }
     for name in &laws {
         let law = parse_law(name).expect("ladder law names are valid");
         let scene = variant(src, vec![name.clone()], Precision::F64, 1)?;
@@ -146,18 +147,18 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
             .map(post_of)
             .collect();
         let ns = timed_run(src, name, Precision::F64, &knobs)?;
-        progress(&format!("law {name}: {ns:.1} ns/sample"));
+        steps.step(&format!("law {name}: {ns:.1} ns/sample"))?;
         rungs.push(judged(Rung::new("law", name, "f64", ns), &posts));
     }
-    for &steps in &knobs.compliant_steps {
-        let (posts, ns, unseparated) = compliant_posts(&newton64, &inputs, knobs.compliant(steps));
-        progress(&format!(
-            "compliant {steps} steps: {ns:.0} ns/sample, {unseparated} not separated"
-        ));
+    for &count in &knobs.compliant_steps {
+        let (posts, ns, unseparated) = compliant_posts(&newton64, &inputs, knobs.compliant(count));
+        steps.step(&format!(
+            "compliant {count} steps: {ns:.0} ns/sample, {unseparated} not separated"
+        ))?;
         rungs.push(judged(
             Rung {
                 unseparated: Some(unseparated as f64 / n as f64),
-                ..Rung::new("compliant", &format!("compliant{steps}"), "f64", ns)
+                ..Rung::new("compliant", &format!("compliant{count}"), "f64", ns)
             },
             &posts,
         ));
@@ -169,7 +170,7 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
             .map(post_of)
             .collect();
         let ns = timed_run(src, "newton", Precision::F32, &knobs)?;
-        progress(&format!("newton f32: {ns:.1} ns/sample"));
+        steps.step(&format!("newton f32: {ns:.1} ns/sample"))?;
         rungs.push(judged(Rung::new("precision", "newton", "f32", ns), &posts));
     }
     rungs.extend(contact_point_rungs(&newton64, &inputs));
@@ -180,11 +181,11 @@ pub fn ladder_of(src: &SceneText, progress: &mut dyn FnMut(&str)) -> Result<Ladd
         let scene = variant(src, vec![law_for_counts.clone()], base.precision(), samples)?;
         let r = run(&scene, &RunOptions::default()).expect("thread pool");
         let m = &r.acc.laws[0].energy_ratio.moments;
-        progress(&format!(
+        steps.step(&format!(
             "N = {samples}: {:.3} s, ci95 {:.2e}",
             r.wall_seconds,
             m.ci95()
-        ));
+        ))?;
         counts.push(CountRow {
             samples,
             wall_seconds: r.wall_seconds,

@@ -25,8 +25,60 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::config::{RawScene, Scene, SceneError};
-use crate::engine::SampleOutcome;
+use crate::engine::{SampleOutcome, Watch};
 use crate::physics::{damping_table, solve_compliant_with, CompliantParams, Pose, State};
+
+/// Why a ladder did not finish.
+#[derive(Debug, thiserror::Error)]
+pub enum LadderError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("the accuracy ladder was cancelled")]
+    Cancelled,
+}
+
+/// How a ladder reports as it goes: a line per step to `line`, and, with a
+/// [`Watch`], the steps done of the ladder's total; the watch's cancel
+/// stops the ladder before its next step.
+pub struct Steps<'a> {
+    line: &'a mut dyn FnMut(&str),
+    watch: Option<&'a Watch>,
+}
+
+impl<'a> Steps<'a> {
+    pub fn new(line: &'a mut dyn FnMut(&str), watch: Option<&'a Watch>) -> Self {
+        Self { line, watch }
+    }
+
+    /// The ladder has `total` steps; stops at once if already cancelled.
+    fn begin(&mut self, total: usize) -> Result<(), LadderError> {
+        if let Some(w) = self.watch {
+            w.set_total(total as u64);
+        }
+        self.check()
+    }
+
+    /// A line that ends no step.
+    fn say(&mut self, line: &str) {
+        (self.line)(line);
+    }
+
+    /// A step done, with its line.
+    fn step(&mut self, line: &str) -> Result<(), LadderError> {
+        self.say(line);
+        if let Some(w) = self.watch {
+            w.advance(1);
+        }
+        self.check()
+    }
+
+    fn check(&self) -> Result<(), LadderError> {
+        match self.watch {
+            Some(w) if w.cancelled() => Err(LadderError::Cancelled),
+            _ => Ok(()),
+        }
+    }
+}
 
 /// Validated knobs of the ladder.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use impactmc::accuracy::{ladder, write_folder, Knobs};
+use impactmc::accuracy::{ladder, write_folder, Knobs, Steps};
 use impactmc::config::load_scene;
 use impactmc::output::prepare_dir;
 
@@ -20,7 +20,8 @@ pub fn run(scene: Option<&Path>, out: Option<&Path>, force: bool) -> Result<(), 
         Path::to_path_buf,
     );
     prepare_dir(&dir, force).map_err(Failure::bad_input)?;
-    let ladder = ladder(&path, &mut |line| eprintln!("{line}")).map_err(Failure::bad_input)?;
+    let mut say = |line: &str| eprintln!("{line}");
+    let ladder = ladder(&path, &mut Steps::new(&mut say, None)).map_err(Failure::bad_input)?;
     let md = write_folder(&ladder, &path, &dir)?;
     emit(&md);
     emit(&format!("\nwrote {}\n", dir.display()));

@@ -29,7 +29,7 @@ pub struct MergeArgs {
 
 pub fn run(args: &MergeArgs) -> Result<(), Failure> {
     prepare_dir(&args.out, args.force).map_err(Failure::bad_input)?;
-    let mut study = merge_study(&args.shards, args.allow_partial, &args.out)?;
+    let mut study = merge_study(&args.shards, args.allow_partial, &args.out, None)?;
     let mut text = study.text();
     if let Some(m) = &study.merge {
         let mut head = format!(

@@ -110,11 +110,15 @@ pub struct RunOptions {
     pub watch: Option<Arc<Watch>>,
 }
 
-/// A run seen from another thread: the samples done so far, and a flag
-/// that stops the run between batches ([`RunError::Cancelled`]).
+/// Work seen from another thread: how much is done of how much, and a
+/// flag that stops it at its next check ([`RunError::Cancelled`] for a
+/// run, between batches). The unit is the work's own: samples for a run or
+/// a study (every grid point), shards for a merge, steps for an accuracy
+/// ladder.
 #[derive(Debug, Default)]
 pub struct Watch {
     done: AtomicU64,
+    total: AtomicU64,
     cancel: AtomicBool,
 }
 
@@ -123,14 +127,27 @@ impl Watch {
         Arc::new(Self::default())
     }
 
-    /// Samples whose batches have finished (in this run, or in the runs of
-    /// a study's grid points so far).
+    /// Work finished so far (for a study, in its grid points so far).
     pub fn done(&self) -> u64 {
         self.done.load(Ordering::Relaxed)
     }
 
-    /// Asks the run to stop: batches not started yet are skipped, and the
-    /// run returns [`RunError::Cancelled`].
+    /// The whole work, once the watched work has said it; 0 before.
+    pub fn total(&self) -> u64 {
+        self.total.load(Ordering::Relaxed)
+    }
+
+    pub(crate) fn set_total(&self, total: u64) {
+        self.total.store(total, Ordering::Relaxed);
+    }
+
+    pub(crate) fn advance(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Asks the work to stop: a run skips the batches not started yet and
+    /// returns [`RunError::Cancelled`]; a merge or a ladder stops before
+    /// its next shard or step.
     pub fn cancel(&self) {
         self.cancel.store(true, Ordering::Relaxed);
     }
@@ -138,6 +155,16 @@ impl Watch {
     pub fn cancelled(&self) -> bool {
         self.cancel.load(Ordering::Relaxed)
     }
+}
+
+/// The samples a run of `scene` takes: all, or one shard's batches.
+pub fn samples_run(scene: &Scene, shard: Option<Shard>) -> u64 {
+    let (n, batch) = (scene.samples(), scene.batch_size());
+    let range = match shard {
+        Some(s) => s.batches(n.div_ceil(batch)),
+        None => 0..n.div_ceil(batch),
+    };
+    (range.end * batch).min(n) - (range.start * batch).min(n)
 }
 
 /// The terminal's progress bar and the caller's [`Watch`].
@@ -150,7 +177,7 @@ impl Progress<'_> {
     fn inc(&self, samples: u64) {
         self.bar.inc(samples);
         if let Some(w) = self.watch {
-            w.done.fetch_add(samples, Ordering::Relaxed);
+            w.advance(samples);
         }
     }
 
@@ -377,8 +404,7 @@ pub fn run_with_samples(
         Some(shard) => shard.batches(batches),
         None => 0..batches,
     };
-    let samples_run = (range.end * scene.batch_size()).min(scene.samples())
-        - (range.start * scene.batch_size()).min(scene.samples());
+    let samples_run = samples_run(scene, opts.shard);
     let bar = if opts.progress && samples_run >= 20_000_000 {
         let b = indicatif::ProgressBar::new(samples_run);
         b.set_style(

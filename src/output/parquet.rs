@@ -413,6 +413,43 @@ impl ArrowTable {
         Self::of_parquet(file)
     }
 
+    /// The rows of one grid point, by the `point` column (a table without
+    /// one is a single point, 0): slices of the batches, not copies. The
+    /// rows of a point need not be contiguous.
+    pub fn point(&self, point: u32) -> Self {
+        let mut batches = Vec::new();
+        for b in &self.batches {
+            let Some(col) = b.column_by_name("point") else {
+                if point == 0 {
+                    batches.push(b.clone());
+                }
+                continue;
+            };
+            let col = col
+                .as_any()
+                .downcast_ref::<UInt32Array>()
+                .expect("point is UInt32");
+            let mut start = None;
+            for (i, &p) in col.values().iter().enumerate() {
+                match (p == point, start) {
+                    (true, None) => start = Some(i),
+                    (false, Some(s)) => {
+                        batches.push(b.slice(s, i - s));
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(s) = start {
+                batches.push(b.slice(s, b.num_rows() - s));
+            }
+        }
+        Self {
+            schema: self.schema.clone(),
+            batches,
+        }
+    }
+
     /// Every row of Parquet data, as record batches.
     fn of_parquet<R: parquet::file::reader::ChunkReader + 'static>(
         data: R,

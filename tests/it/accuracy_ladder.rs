@@ -240,16 +240,11 @@ fn lagrange_contact_point_matches_the_closed_form() {
     }
 }
 
-/// `impactmc accuracy` end to end on a small ladder: three files, a table
-/// with every rung, a readable Parquet file; bad knobs are refused by name.
-#[test]
-fn accuracy_command_writes_table_plot_and_parquet() {
-    let d = scratch("accuracy");
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
+/// accuracy_corner3 with a small ladder: 40 samples, compliant 12 and 25
+/// steps against 100, pgs1 and pgs4, counts 10³ and 10⁴.
+fn small_ladder() -> String {
     let text = std::fs::read_to_string(repo("configs/accuracy_corner3.toml")).unwrap();
-    let small = text
-        .lines()
+    text.lines()
         .map(|l| {
             let key = l.split('=').next().unwrap_or("").trim();
             match key {
@@ -263,7 +258,17 @@ fn accuracy_command_writes_table_plot_and_parquet() {
             }
         })
         .collect::<Vec<_>>()
-        .join("\n");
+        .join("\n")
+}
+
+/// `impactmc accuracy` end to end on a small ladder: three files, a table
+/// with every rung, a readable Parquet file; bad knobs are refused by name.
+#[test]
+fn accuracy_command_writes_table_plot_and_parquet() {
+    let d = scratch("accuracy");
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let small = small_ladder();
     let scene = d.join("acc.toml");
     std::fs::write(&scene, &small).unwrap();
     let stdout = accuracy_ok(&scene, &d.join("out"));
@@ -315,7 +320,9 @@ fn flight_rungs_converge_with_step_and_tolerance() {
     let impactmc::config::Placement::Drop(start) = s.placement() else {
         panic!("drop_corner is a drop scene");
     };
-    let ladder = impactmc::accuracy::flight_ladder(&s, start, knobs, &mut |_| {});
+    let mut quiet = |_: &str| {};
+    let steps = &mut impactmc::accuracy::Steps::new(&mut quiet, None);
+    let ladder = impactmc::accuracy::flight_ladder(&s, start, knobs, steps).unwrap();
     let errs = |family: &str| -> Vec<f64> {
         ladder
             .rungs
@@ -382,4 +389,36 @@ fn friction_ladder_has_stronge_and_no_poisson() {
         err.contains("accuracy.friction_regularisation") && err.contains("-1"),
         "{err}"
     );
+}
+
+/// A ladder with a watch: the watch counts its steps (the reference, each
+/// law, each compliant step count, f32, each sample count), and a cancel
+/// stops it before the next step.
+#[test]
+fn a_watched_ladder_counts_its_steps_and_stops_when_asked() {
+    use impactmc::accuracy::{ladder_of, LadderError, Steps};
+    use impactmc::config::SceneText;
+    use impactmc::engine::Watch;
+    let src = SceneText::new("small.toml", small_ladder());
+    // The reference; paper, pgs1, pgs4, newton, poisson; two compliant
+    // rungs; f32; two counts.
+    let steps = 1 + 5 + 2 + 1 + 2;
+    let watch = Watch::new();
+    let mut lines = 0;
+    let mut count = |_: &str| lines += 1;
+    ladder_of(&src, &mut Steps::new(&mut count, Some(&watch))).unwrap();
+    assert_eq!((watch.done(), watch.total()), (steps, steps));
+    assert!(lines as u64 >= steps);
+    // Asked to stop as its third step ends: it stops there.
+    let watch = Watch::new();
+    let mut stop = |_: &str| {
+        if watch.done() == 2 {
+            watch.cancel();
+        }
+    };
+    match ladder_of(&src, &mut Steps::new(&mut stop, Some(&watch))) {
+        Err(LadderError::Cancelled) => {}
+        other => panic!("a cancelled ladder gave {:?}", other.map(|l| l.rungs.len())),
+    }
+    assert_eq!(watch.done(), 3);
 }

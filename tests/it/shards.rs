@@ -213,7 +213,34 @@ fn more_shards_than_batches_and_a_sweep_merge_exactly() {
             &format!("{n} shards"),
         );
         assert_same_tables(&d.join("single"), &sd.join("merged"));
+        watched_merge_counts_shards_and_stops(&parts, &sd);
     }
+}
+
+/// The library's merge with a watch: the watch counts every shard read,
+/// and a merge asked to stop stops before reading one, with nothing
+/// written.
+fn watched_merge_counts_shards_and_stops(parts: &[PathBuf], d: &Path) {
+    use impactmc::engine::{RunError, Watch};
+    use impactmc::study::{merge_study, StudyError};
+    let watch = Watch::new();
+    let out = d.join("watched");
+    let mut study = merge_study(parts, false, &out, Some(&watch)).unwrap();
+    study.write().unwrap();
+    assert_eq!(
+        (watch.done(), watch.total()),
+        (parts.len() as u64, parts.len() as u64)
+    );
+    let stopped = Watch::new();
+    stopped.cancel();
+    let out = d.join("stopped");
+    match merge_study(parts, false, &out, Some(&stopped)) {
+        Err(StudyError::Run(RunError::Cancelled)) => {}
+        Err(e) => panic!("a cancelled merge failed otherwise: {e}"),
+        Ok(_) => panic!("a cancelled merge finished"),
+    }
+    assert_eq!(stopped.done(), 0);
+    assert!(!out.exists(), "a stopped merge wrote {}", out.display());
 }
 
 #[test]
