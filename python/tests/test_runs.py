@@ -88,6 +88,22 @@ def test_tables_read_without_a_copy_where_pyarrow_is(repo):
         result.samples()
 
 
+def test_rows_go_into_polars_and_pyarrow_without_a_copy(repo):
+    pl = pytest.importorskip("polars")
+    pa = pytest.importorskip("pyarrow")
+    rows = impactmc.Scene.from_toml(repo / "configs/corner3.toml").run(
+        samples=300_000, per_sample=True, progress=False
+    ).samples()
+    column = "energy_ratio_newton"
+    # Two imports of the stream see the same buffers: the run's own.
+    first = [c.buffers()[1].address for c in pa.table(rows).column(column).chunks]
+    second = [c.buffers()[1].address for c in pa.table(rows).column(column).chunks]
+    assert len(first) > 1 and first == second
+    # polars keeps them as its chunks (each chunk's export is zero-copy).
+    chunks = pl.DataFrame(rows)[column].get_chunks()
+    assert [c.to_arrow().buffers()[1].address for c in chunks] == first
+
+
 def test_duckdb_reads_the_rows(repo):
     duckdb = pytest.importorskip("duckdb")
     rows = impactmc.Scene.from_toml(repo / "configs/floor.toml").run(
