@@ -161,10 +161,7 @@ pub fn run_study(
         let selection = Selection::of_scene(&points[0].scene, output.columns.as_deref())
             .map_err(|m| field_error("columns", m))?;
         let precision = selection.precision();
-        let threads = match opts.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            n => n,
-        };
+        let threads = opts.worker_threads();
         let sweep = !axes.is_empty();
         Some(match staging.as_mut() {
             None => Rows::Memory(MemoryRows::new(selection, sweep)),

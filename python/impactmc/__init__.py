@@ -224,8 +224,14 @@ class Result:
         point)."""
         return self._inner.samples()
 
+    def __str__(self) -> str:
+        """The summary the command line prints."""
+        return self.text
+
     def __repr__(self) -> str:
-        return repr(self._inner)
+        """What the result is (scene, points, samples, where), then its
+        summary, as the command line prints it."""
+        return f"{self._inner!r}\n{self.text.rstrip()}"
 
     def _repr_html_(self) -> str:
         import html

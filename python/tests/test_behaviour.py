@@ -49,7 +49,13 @@ def test_a_scene_from_text_and_from_a_dict():
     a = s.run(progress=False).summary
     b = d.run(progress=False).summary
     assert a["laws"] == b["laws"]
-    assert "Scene(" in repr(s) and "Result(" in repr(s.run(progress=False))
+    assert "Scene(" in repr(s)
+    # At the prompt a result shows what it is, then the CLI's summary.
+    result = s.run(progress=False)
+    assert str(result) == result.text
+    head, text = repr(result).split("\n", 1)
+    assert head.startswith("Result(scene=\"floor\", points=1, samples=1000, in memory")
+    assert text == result.text.rstrip() and "[newton]" in text
 
 
 @pytest.mark.parametrize(

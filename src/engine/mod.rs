@@ -110,6 +110,16 @@ pub struct RunOptions {
     pub watch: Option<Arc<Watch>>,
 }
 
+impl RunOptions {
+    /// The worker threads a run uses: `threads`, or every core for 0.
+    pub fn worker_threads(&self) -> usize {
+        match self.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        }
+    }
+}
+
 /// Work seen from another thread: how much is done of how much, and a
 /// flag that stops it at its next check ([`RunError::Cancelled`] for a
 /// run, between batches). The unit is the work's own: samples for a run or
@@ -389,13 +399,7 @@ pub fn run_with_samples(
     opts: &RunOptions,
     sink: Option<&mut SampleSink>,
 ) -> Result<RunResult, RunError> {
-    let threads = if opts.threads == 0 {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-    } else {
-        opts.threads
-    };
+    let threads = opts.worker_threads();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
