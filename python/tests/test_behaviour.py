@@ -161,10 +161,10 @@ def test_ctrl_c_stops_a_run_within_about_a_second():
 
 
 def test_ctrl_c_stops_the_accuracy_ladder_at_the_end_of_a_step(repo, tmp_path):
-    # 20 steps, none over about a second but the last (about 8 s on two
-    # cores): about 15 s in all.
+    # 20 steps, none over about a second but the last (about 25 s on two
+    # cores): about half a minute in all.
     scene = impactmc.Scene.from_toml(repo / "configs/accuracy_corner3.toml").replace(
-        accuracy={"samples": 200, "sample_counts": [1000, 1_000_000_000]}
+        accuracy={"samples": 200, "sample_counts": [1000, 3_000_000_000]}
     )
     seen = []
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
@@ -172,7 +172,10 @@ def test_ctrl_c_stops_the_accuracy_ladder_at_the_end_of_a_step(repo, tmp_path):
     t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt):
         impactmc.accuracy(scene, out=tmp_path / "acc", progress=lambda *c: seen.append(c))
-    assert time.perf_counter() - t0 < 5.0
+    # Within a step or two of the signal (with room for a loaded machine),
+    # long before the end; a ladder that had ended would have written its
+    # folder.
+    assert time.perf_counter() - t0 < 8.0
     assert not seen or seen[-1][0] < seen[-1][1]
     assert list((tmp_path / "acc").iterdir()) == []
 
