@@ -291,9 +291,8 @@ fn flight(c: &mut Criterion) {
     let impactmc::config::Placement::Drop(start) = s.placement() else {
         panic!("drop_corner is a drop scene")
     };
-    let boxes = impactmc::sampler::rng::drop_start_rng(s.seed());
     let flights: Vec<_> = (0..BLOCK as u64)
-        .map(|i| impactmc::drop::start_of(start, &sampler, &boxes, i))
+        .map(|i| impactmc::drop::start_of(start, &sampler, i))
         .collect();
     let planes: Vec<_> = s.planes().iter().map(|p| p.plane).collect();
     let fx = s.effects();

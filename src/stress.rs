@@ -101,6 +101,8 @@ fn scene(
         seed: 11,
         laws: vec!["newton".into()],
         precision: precision.into(),
+        sampling: None,
+        replicates: None,
         contact_tolerance: None,
         batch_size: None,
         body: RawBody { semi_axes, mass },

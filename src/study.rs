@@ -311,6 +311,7 @@ pub fn merge_study(
             n,
             first.info.batches,
             Shape::of(&p.scene),
+            p.scene.sampling().replicate_level(p.scene.batch_size()),
             wall[k],
             cpu[k],
             threads,

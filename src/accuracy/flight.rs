@@ -31,9 +31,8 @@ pub fn flight_ladder(
     use crate::drop::{first_impact, start_of};
     let law = scene.laws()[0];
     let sampler = crate::sampler::Sampler::new(scene);
-    let boxes = crate::sampler::rng::drop_start_rng(scene.seed());
     let starts: Vec<_> = (0..knobs.samples as u64)
-        .map(|i| start_of(start, &sampler, &boxes, i))
+        .map(|i| start_of(start, &sampler, i))
         .collect();
     let fine_tol = knobs
         .toi_tolerances

@@ -33,6 +33,15 @@ pub struct RunArgs {
     /// Kernel precision: f32 or f64 (overrides the scene's `precision`).
     #[arg(long)]
     precision: Option<Precision>,
+    /// Sampling method: mc (independent draws) or rqmc (replicates of
+    /// Owen-scrambled Sobol points; intervals from their spread).
+    /// Overrides the scene's `sampling`.
+    #[arg(long, value_name = "mc|rqmc")]
+    sampling: Option<String>,
+    /// RQMC replicates, at least 2 (default 16; overrides the scene's
+    /// `replicates`).
+    #[arg(long, value_name = "R")]
+    replicates: Option<u64>,
     /// Output folder (default: results/<scene name>/).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -83,6 +92,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         seed: args.seed,
         laws: (!args.laws.is_empty()).then(|| args.laws.clone()),
         precision: args.precision,
+        sampling: args.sampling.clone(),
+        replicates: args.replicates,
         // `--quantiles ''` is the empty list, as `quantiles = []` is.
         quantiles: args
             .quantiles

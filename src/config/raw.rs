@@ -15,6 +15,14 @@ pub struct RawScene {
     /// `f32` or `f64`.
     #[serde(default = "default_precision")]
     pub precision: String,
+    /// Where the uniforms come from: `mc` (independent draws, the
+    /// default) or `rqmc` (`replicates` Owen-scrambled Sobol point sets).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<String>,
+    /// RQMC only: independent scrambles of the points (at least 2,
+    /// default 16); intervals come from their spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replicates: Option<u64>,
     /// Metres. Default: 1e-9 × the scene's length scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_tolerance: Option<f64>,

@@ -39,6 +39,53 @@ impl Precision {
     }
 }
 
+/// Where a run's uniforms come from (`sampling`, `replicates`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sampling {
+    /// Monte Carlo: independent draws of the counter-based generator.
+    Mc,
+    /// Randomized quasi-Monte Carlo: `replicates` independent Owen
+    /// scrambles of the first `2^log2_points` Sobol points; replicate r
+    /// holds samples `[r·2^log2_points, (r + 1)·2^log2_points)`.
+    Rqmc { replicates: u64, log2_points: u32 },
+}
+
+impl Sampling {
+    /// Default replicates of `rqmc`.
+    pub const DEFAULT_REPLICATES: u64 = 16;
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Sampling::Mc => "mc",
+            Sampling::Rqmc { .. } => "rqmc",
+        }
+    }
+
+    /// RQMC's replicates (none for MC).
+    pub fn replicates(&self) -> Option<u64> {
+        match *self {
+            Sampling::Mc => None,
+            Sampling::Rqmc { replicates, .. } => Some(replicates),
+        }
+    }
+
+    /// RQMC's points per replicate (none for MC).
+    pub fn samples_per_replicate(&self) -> Option<u64> {
+        match *self {
+            Sampling::Mc => None,
+            Sampling::Rqmc { log2_points, .. } => Some(1 << log2_points),
+        }
+    }
+
+    /// The merge-tree level of one replicate over batches of `batch`
+    /// samples (a replicate is one node of the tree); none for MC.
+    pub fn replicate_level(&self, batch: u64) -> Option<u32> {
+        let m = self.samples_per_replicate()?;
+        assert!(m % batch == 0, "a replicate is whole batches");
+        Some((m / batch).trailing_zeros())
+    }
+}
+
 /// Orientation distribution.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OrientationDist {
@@ -96,6 +143,9 @@ pub const DEFAULT_TOLERANCE_RELATIVE: f64 = 1e-9;
 /// keeps every count exact in f64 statistics).
 pub const MAX_SAMPLES: u64 = 1 << 53;
 
+/// Largest RQMC replicate: 2^32 points (the Sobol points' digits).
+pub const MAX_LOG2_POINTS: u32 = 32;
+
 /// Where every sample of a scene starts: decided once, when the scene is
 /// validated. The engine chooses a batch body from it; statistics and rows
 /// that one kind of scene has and the other lacks follow from the
@@ -132,6 +182,7 @@ pub struct Scene {
     pub(super) seed: u64,
     pub(super) laws: Vec<Law>,
     pub(super) precision: Precision,
+    pub(super) sampling: Sampling,
     pub(super) tolerance: f64,
     pub(super) batch_size: u64,
     pub(super) body: Ellipsoid,
@@ -204,6 +255,11 @@ impl Scene {
     }
     pub fn precision(&self) -> Precision {
         self.precision
+    }
+    /// Where the uniforms come from; with RQMC, [`Self::samples`] is
+    /// replicates × points per replicate.
+    pub fn sampling(&self) -> Sampling {
+        self.sampling
     }
     pub fn tolerance(&self) -> f64 {
         self.tolerance
@@ -333,6 +389,10 @@ pub struct Overrides {
     pub precision: Option<Precision>,
     /// `--quantiles`: replaces `[statistics] quantiles`.
     pub quantiles: Option<Vec<String>>,
+    /// `--sampling`: `mc` or `rqmc`.
+    pub sampling: Option<String>,
+    /// `--replicates`: RQMC's replicates.
+    pub replicates: Option<u64>,
 }
 
 impl Overrides {
@@ -348,6 +408,17 @@ impl Overrides {
         }
         if let Some(p) = self.precision {
             raw.precision = p.name().to_string();
+        }
+        if let Some(m) = &self.sampling {
+            raw.sampling = Some(m.clone());
+            // A change of method drops the scene's replicates, which
+            // belonged to the other method (`--replicates` sets them).
+            if m != "rqmc" {
+                raw.replicates = None;
+            }
+        }
+        if let Some(r) = self.replicates {
+            raw.replicates = Some(r);
         }
         if let Some(q) = &self.quantiles {
             let st = raw.statistics.get_or_insert_with(Default::default);

@@ -6,8 +6,8 @@ use glam::DVec3;
 
 use crate::config::effects::Effects;
 use crate::config::scene::{
-    Contact, DropBox, NamedPlane, OrientationDist, Placement, Precision, Scene, VectorDist,
-    DEFAULT_TOLERANCE_RELATIVE, MAX_SAMPLES,
+    Contact, DropBox, NamedPlane, OrientationDist, Placement, Precision, Sampling, Scene,
+    VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS, MAX_SAMPLES,
 };
 use crate::config::{RawOrientation, RawScene, RawVector};
 use crate::physics::{matrix_from_bryan, Bryan, Ellipsoid, Law, Plane, SymMatrix};
@@ -243,6 +243,57 @@ fn orientation(raw: &RawScene) -> Result<OrientationDist, Bad> {
     })
 }
 
+/// `sampling` and `replicates`: RQMC runs `replicates` scrambles of the
+/// smallest power of two of points that makes at least `samples` in all
+/// (at most 2³² per replicate).
+fn sampling(raw: &RawScene) -> Result<Sampling, Bad> {
+    match raw.sampling.as_deref().unwrap_or("mc") {
+        "mc" => match raw.replicates {
+            None => Ok(Sampling::Mc),
+            Some(r) => Err(bad(
+                &["replicates"],
+                format!("is for sampling = \"rqmc\" only (sampling is \"mc\"), got {r}"),
+            )),
+        },
+        "rqmc" => {
+            let replicates = raw.replicates.unwrap_or(Sampling::DEFAULT_REPLICATES);
+            if replicates < 2 {
+                return Err(bad(
+                    &["replicates"],
+                    format!("must be at least 2 (intervals come from the replicates' spread), got {replicates}"),
+                ));
+            }
+            if raw.samples < replicates {
+                return Err(bad(
+                    &["samples"],
+                    format!("must be at least replicates ({replicates}) with sampling = \"rqmc\", got {}", raw.samples),
+                ));
+            }
+            let per = raw.samples.div_ceil(replicates).next_power_of_two();
+            let log2_points = per.trailing_zeros();
+            if log2_points > MAX_LOG2_POINTS
+                || (replicates as u128) << log2_points > MAX_SAMPLES as u128
+            {
+                return Err(bad(
+                    &["samples"],
+                    format!(
+                        "is too large for sampling = \"rqmc\": {replicates} replicates of 2^{log2_points} points (at most 2^32 points each, 2^53 in all), got {}",
+                        raw.samples
+                    ),
+                ));
+            }
+            Ok(Sampling::Rqmc {
+                replicates,
+                log2_points,
+            })
+        }
+        other => Err(bad(
+            &["sampling"],
+            format!("must be \"mc\" or \"rqmc\", got {other:?}"),
+        )),
+    }
+}
+
 impl Scene {
     /// Raw → validated, section by section; every default made explicit.
     pub(super) fn from_raw(raw: RawScene) -> Result<Self, Bad> {
@@ -263,6 +314,7 @@ impl Scene {
         }
         let laws = laws(&raw)?;
         let precision: Precision = raw.precision.parse().map_err(|m| bad(&["precision"], m))?;
+        let sampling = sampling(&raw)?;
         // A drop sample costs hundreds of contact samples: smaller batches
         // keep every core busy on a drop scene's default sample count.
         let default_batch = if raw.placement.drop.is_some() {
@@ -320,16 +372,29 @@ impl Scene {
         let velocity = vector_dist("velocity", &raw.velocity)?;
         let angular_velocity = vector_dist("angular_velocity", &raw.angular_velocity)?;
         Self::check_ranges(&body, precision, velocity, angular_velocity, length_scale)?;
+        // RQMC runs whole replicates, each whole batches: a replicate
+        // smaller than a batch is its own batch.
+        let (samples, batch_size) = match sampling {
+            Sampling::Mc => (raw.samples, batch_size),
+            Sampling::Rqmc {
+                replicates,
+                log2_points,
+            } => (replicates << log2_points, batch_size.min(1 << log2_points)),
+        };
         // Every default made explicit, for the manifest.
         let mut raw = raw;
         raw.contact_tolerance = Some(tolerance);
         raw.batch_size = Some(batch_size);
+        raw.samples = samples;
+        raw.sampling = Some(sampling.name().into());
+        raw.replicates = sampling.replicates();
         Ok(Scene {
             name: raw.name.clone(),
-            samples: raw.samples,
+            samples,
             seed: raw.seed,
             laws,
             precision,
+            sampling,
             tolerance,
             batch_size,
             body,

@@ -20,13 +20,11 @@ use glam::DVec3;
 use crate::config::{DropBox, Scene};
 use crate::kernel::LawOut;
 use crate::lanes::dispatch::BLOCK;
-use crate::lanes::Real;
 use crate::output::samples::SampleRows;
 use crate::physics::{
     solve_impact, time_of_impact, Ellipsoid, Impact, ImpactError, ImpactOutcome, Law, Motion,
     Plane, Pose, Rotation, State,
 };
-use crate::sampler::rng::CounterRng;
 use crate::sampler::Sampler;
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::{block_stats, record_friction, Before, Derived, StatsPlan};
@@ -41,16 +39,11 @@ use walk::{How, Log, Walk};
 mod wave;
 
 /// The start of sample `i`: drawn orientation and velocities, centre
-/// uniform in the drop box (its own stream, so the engine's draws are
-/// unchanged).
-pub fn start_of(start: &DropBox, sampler: &Sampler, boxes: &CounterRng, i: u64) -> Motion {
+/// uniform in the drop box (draws 9–11, [`Sampler::start_uniforms`]).
+pub fn start_of(start: &DropBox, sampler: &Sampler, i: u64) -> Motion {
     let (a, v, w) = sampler.reference(i);
     let (lo, hi) = (start.low, start.high);
-    let u = DVec3::new(
-        f64::uniform(boxes.bits(i, 0)),
-        f64::uniform(boxes.bits(i, 1)),
-        f64::uniform(boxes.bits(i, 2)),
-    );
+    let u = DVec3::from_array(sampler.start_uniforms(i));
     Motion {
         centre: lo + (hi - lo) * u,
         rotation: a,
@@ -148,7 +141,6 @@ pub struct DropCtx<'a> {
     scene: &'a Scene,
     start: DropBox,
     sampler: Sampler,
-    boxes: CounterRng,
     flight: Flight,
     plan: StatsPlan,
     /// Walks by the f64 reference alone (else in lanes of the scene's
@@ -211,7 +203,6 @@ impl<'a> DropCtx<'a> {
             scene,
             start,
             sampler: Sampler::new(scene),
-            boxes: crate::sampler::rng::drop_start_rng(scene.seed()),
             flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
             // |ω⁺| changes in flight and at impacts: computed per sample.
             plan: StatsPlan::of(scene, keep).per_sample_spin(),
@@ -329,7 +320,7 @@ impl<'a> DropCtx<'a> {
         for (k, log) in logs.iter_mut().enumerate() {
             let (i, law) = (first + (k / laws.len()) as u64, laws[k % laws.len()]);
             log.clear();
-            let mut walk = Walk::new(start_of(&self.start, &self.sampler, &self.boxes, i));
+            let mut walk = Walk::new(start_of(&self.start, &self.sampler, i));
             let ending = loop {
                 if let Some(e) = walk.fly(self.scene.effects().bounces as usize) {
                     break e;

@@ -213,7 +213,7 @@ impl DropCtx<'_> {
                 next += 1;
                 logs[item].clear();
                 let i = first + (item / laws) as u64;
-                let start = start_of(&self.start, &self.sampler, &self.boxes, i);
+                let start = start_of(&self.start, &self.sampler, i);
                 Lane {
                     item,
                     law: item % laws,

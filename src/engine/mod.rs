@@ -272,7 +272,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
         progress.inc(hi - lo);
         (part, rows)
     };
-    run_tree(batch_range, &run_batch, &accs, sink)
+    run_tree(scene, batch_range, &run_batch, &accs, sink)
 }
 
 /// A drop scene's batches: per sample, the f64 reference flight and
@@ -306,19 +306,26 @@ fn run_drops(
         progress.inc(hi - lo);
         (part, rows)
     };
-    run_tree(batch_range, &run_batch, &accs, sink)
+    run_tree(scene, batch_range, &run_batch, &accs, sink)
 }
 
 /// Runs the batches of `batch_range` with `run_batch` and merges their
 /// accumulators along the fixed merge tree: the maximal tree nodes inside
-/// the range, in batch order. Per-sample rows go to `sink` in batch order.
+/// the range, in batch order, none above an RQMC replicate (so that the
+/// final reduction, of this run or of merged shards, sees every
+/// replicate). Per-sample rows go to `sink` in batch order.
 fn run_tree(
+    scene: &Scene,
     batch_range: std::ops::Range<u64>,
     run_batch: &(dyn Fn(u64) -> (RunAcc, Option<SampleRows>) + Sync),
     accs: &Pool<RunAcc>,
     mut sink: Option<&mut SampleSink>,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
-    let mut tree = TreeStack::default();
+    let max_level = scene
+        .sampling()
+        .replicate_level(scene.batch_size())
+        .unwrap_or(u32::MAX);
+    let mut tree = TreeStack::new(max_level);
     if sink.is_none() {
         // Summary only: each maximal tree node is run as a parallel
         // recursion that merges its two halves as soon as both are done,
@@ -350,7 +357,7 @@ fn run_tree(
             left
         }
         let leaf = |b: u64| run_batch(b).0;
-        let nodes = aligned_nodes(batch_range);
+        let nodes = aligned_nodes(batch_range, max_level);
         let merged: Vec<RunAcc> = nodes
             .par_iter()
             .map(|&node| subtree(node, &leaf, accs))
@@ -462,8 +469,15 @@ pub fn run_with_samples(
     } else {
         Vec::new()
     };
-    let (mut acc, _) = reduce_tree(nodes, batches, Shape::of(scene));
+    let reduced = reduce_tree(
+        nodes,
+        batches,
+        Shape::of(scene),
+        scene.sampling().replicate_level(scene.batch_size()),
+    );
+    let (mut acc, mut replicates) = (reduced.acc, reduced.replicates);
     acc.finish();
+    replicates.iter_mut().for_each(RunAcc::finish);
     let wall_seconds = t0.elapsed().as_secs_f64();
     progress.bar.finish_and_clear();
     let cpu_seconds = match (cpu0, process_cpu_seconds()) {
@@ -472,6 +486,7 @@ pub fn run_with_samples(
     };
     Ok(RunResult {
         acc,
+        replicates,
         nodes: kept,
         batches,
         batches_run: range.end - range.start,

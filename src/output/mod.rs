@@ -8,6 +8,7 @@ pub mod manifest;
 pub mod named;
 pub mod parquet;
 pub mod plots;
+mod replicated;
 pub mod samples;
 pub mod shard;
 mod staging;

@@ -31,6 +31,13 @@ impl<T> Named<T> {
     pub fn insert(&mut self, name: impl Into<String>, value: T) {
         self.0.push((name.into(), value));
     }
+    /// Replaces `name`'s value, or inserts it last.
+    pub fn set(&mut self, name: &str, value: T) {
+        match self.0.iter_mut().find(|(k, _)| k == name) {
+            Some((_, v)) => *v = value,
+            None => self.insert(name, value),
+        }
+    }
     pub fn get(&self, name: &str) -> Option<&T> {
         self.0.iter().find(|(k, _)| k == name).map(|(_, v)| v)
     }

@@ -474,18 +474,23 @@ pub fn read_nodes(dir: &Path, shapes: &[Shape]) -> Result<Vec<Vec<(Node, RunAcc)
 
 /// One grid point's merged result: the shards' nodes reduced along the
 /// merge tree, finished. Batches of missing shards count as empty.
+#[allow(clippy::too_many_arguments)]
 pub fn merge_point(
     nodes: Vec<(Node, RunAcc)>,
     batches: u64,
     shape: Shape,
+    replicate_level: Option<u32>,
     wall_seconds: f64,
     cpu_seconds: Option<f64>,
     threads: usize,
 ) -> RunResult {
-    let (mut acc, missing) = reduce_tree(nodes, batches, shape);
+    let reduced = reduce_tree(nodes, batches, shape, replicate_level);
+    let (mut acc, mut replicates, missing) = (reduced.acc, reduced.replicates, reduced.missing);
     acc.finish();
+    replicates.iter_mut().for_each(RunAcc::finish);
     RunResult {
         acc,
+        replicates,
         nodes: Vec::new(),
         batches,
         batches_run: batches - missing,

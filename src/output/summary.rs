@@ -32,6 +32,11 @@ pub struct StatSummary {
     pub p99: Option<f64>,
     #[serde(deserialize_with = "nan_if_null")]
     pub max: f64,
+    /// RQMC only: what the replicates bought, the variance of this mean
+    /// from independent samples over its variance from the replicates
+    /// (null where either is zero or undefined).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain: Option<f64>,
 }
 
 /// JSON writes a number that is not finite as null; it reads back as NaN.
@@ -59,6 +64,7 @@ impl StatSummary {
             median: None,
             p99: None,
             max: nan_if_empty(m.max()),
+            gain: None,
         }
     }
 
@@ -79,6 +85,7 @@ impl StatSummary {
             median: None,
             p99: None,
             max: nan_if_empty(per_pair.max()),
+            gain: None,
         }
     }
 
@@ -115,9 +122,32 @@ pub struct GroupSummary {
     pub fractions_ci95: Named<f64>,
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets: Named<f64>,
+    /// RQMC only: the fractions' gains, and the active sets' intervals and
+    /// gains (from the replicates, like every interval of such a run).
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub fractions_gain: Named<f64>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub active_sets_ci95: Named<f64>,
+    #[serde(default, skip_serializing_if = "Named::is_empty")]
+    pub active_sets_gain: Named<f64>,
 }
 
 impl GroupSummary {
+    /// No samples, no statistics.
+    fn empty() -> Self {
+        Self {
+            samples: 0,
+            impacts: 0,
+            stats: Named::default(),
+            fractions: Named::default(),
+            fractions_ci95: Named::default(),
+            active_sets: Named::default(),
+            fractions_gain: Named::default(),
+            active_sets_ci95: Named::default(),
+            active_sets_gain: Named::default(),
+        }
+    }
+
     /// `fractions[name]`, NaN where the group has none.
     pub fn fraction(&self, name: &str) -> f64 {
         self.fractions.get(name).copied().unwrap_or(f64::NAN)
@@ -226,12 +256,24 @@ pub struct Throughput {
     pub cpu_seconds: Option<f64>,
 }
 
+/// How an RQMC run drew its samples (absent for MC).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SamplingSummary {
+    /// `rqmc`.
+    pub method: String,
+    pub replicates: u64,
+    pub samples_per_replicate: u64,
+}
+
 /// The public JSON of `impactmc run --format json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Summary {
     pub scene: String,
     pub samples: u64,
     pub seed: u64,
+    /// RQMC: the replicates; every interval then comes from their spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<SamplingSummary>,
     pub precision: String,
     pub threads: usize,
     pub throughput: Throughput,
@@ -446,6 +488,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             fractions,
             fractions_ci95: cis,
             active_sets,
+            ..GroupSummary::empty()
         },
     );
     for (mask, g) in acc.groups.iter().enumerate() {
@@ -471,6 +514,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
                 fractions: Named::default(),
                 fractions_ci95: Named::default(),
                 active_sets: Named::default(),
+                ..GroupSummary::empty()
             },
         );
     }
@@ -478,7 +522,29 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
 }
 
 impl Summary {
+    /// The summary of a run; with RQMC replicates, every interval from
+    /// their spread ([`Self::replicated`]).
     pub fn new(scene: &Scene, result: &RunResult) -> Self {
+        let mut summary = Self::of_acc(scene, &result.acc, result);
+        if let Some(replicates) = scene.sampling().replicates() {
+            let reps: Vec<Summary> = result
+                .replicates
+                .iter()
+                .map(|acc| Self::of_acc(scene, acc, result))
+                .collect();
+            summary.sampling = Some(SamplingSummary {
+                method: scene.sampling().name().into(),
+                replicates,
+                samples_per_replicate: scene.sampling().samples_per_replicate().unwrap_or(0),
+            });
+            summary.replicated(&reps, replicates as usize);
+        }
+        summary
+    }
+
+    /// The summary of one accumulator (the run's, or a replicate's), with
+    /// the run's timing.
+    fn of_acc(scene: &Scene, acc: &crate::stats::accumulators::RunAcc, result: &RunResult) -> Self {
         let contacts: Vec<String> = scene
             .recorded_planes()
             .iter()
@@ -489,16 +555,16 @@ impl Summary {
             scene
                 .laws()
                 .iter()
-                .zip(&result.acc.laws)
+                .zip(&acc.laws)
                 .map(|(law, acc)| (law.name(), law_summary(acc, &contacts, by_set)))
                 .collect(),
         );
         // The samples the accumulators hold: the scene's count, except for
         // a shard's share or a partial merge.
-        let samples = result.acc.laws.first().map_or(0, |l| l.samples);
+        let samples = acc.laws.first().map_or(0, |l| l.samples);
         let mut paired = Named::default();
         let first = scene.laws()[0].name();
-        for (law, p) in scene.laws().iter().skip(1).zip(&result.acc.pairs) {
+        for (law, p) in scene.laws().iter().skip(1).zip(&acc.pairs) {
             // The fraction of samples where one law of the pair raises
             // energy_gain (at a drop's first impact) and the other does not.
             let (mut only, mut cis) = (Named::default(), Named::default());
@@ -525,7 +591,7 @@ impl Summary {
             scene
                 .laws()
                 .iter()
-                .zip(&result.acc.drops)
+                .zip(&acc.drops)
                 .map(|(law, acc)| (law.name(), drop_summary(acc, &contacts)))
                 .collect(),
         );
@@ -537,6 +603,7 @@ impl Summary {
             scene: scene.name().to_string(),
             samples,
             seed: scene.seed(),
+            sampling: None,
             precision: precision.to_string(),
             threads: result.threads,
             throughput: Throughput {
@@ -571,6 +638,16 @@ impl Summary {
             self.throughput.wall_seconds,
             self.throughput.samples_per_second
         );
+        if let Some(q) = &self.sampling {
+            let _ = writeln!(
+                s,
+                "sampling: {}, {} replicates × {} points; every ±95% from the replicates' spread (Student t, {} dof), gain = its variance with independent samples / with these",
+                q.method,
+                q.replicates,
+                q.samples_per_replicate,
+                q.replicates - 1
+            );
+        }
         if self.drops.is_empty() {
             let _ = writeln!(s, "contacts: {}", self.contacts.join(", "));
         } else {
@@ -591,9 +668,15 @@ impl Summary {
                 all.impacts, all.samples, frac("impacting"), frac("energy_gain"), frac("degenerate"), frac("jammed"),
                 frac("recomputed_f64"), frac("penetrating")
             );
+            let rqmc = self.sampling.is_some();
+            let gain_head = if rqmc {
+                format!(" {:>8}", "gain")
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 s,
-                "  {:<26} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10}",
+                "  {:<26} {:>12} {:>10}{gain_head} {:>10} {:>10} {:>10} {:>10}",
                 "statistic", "mean", "±95%", "sd", "p01", "median", "p99"
             );
             // The per-contact rebound is heavy-tailed where contacts graze
@@ -607,9 +690,14 @@ impl Summary {
                     x.map(|x| format!("{x:>10.4}"))
                         .unwrap_or_else(|| format!("{:>10}", "-"))
                 };
+                let gain = match st.gain {
+                    Some(g) if rqmc => format!(" {g:>8.1}"),
+                    _ if rqmc => format!(" {:>8}", "-"),
+                    _ => String::new(),
+                };
                 let _ = writeln!(
                     s,
-                    "  {:<26} {:>12.6} {:>10.2e} {:>10.4} {} {} {}",
+                    "  {:<26} {:>12.6} {:>10.2e}{gain} {:>10.4} {} {} {}",
                     name,
                     st.mean,
                     st.ci95,
@@ -622,7 +710,13 @@ impl Summary {
             let sets: Vec<String> = all
                 .active_sets
                 .iter()
-                .map(|(k, v)| format!("{}={v:.4}", if k.is_empty() { "(none)" } else { k }))
+                .map(|(k, v)| {
+                    let name = if k.is_empty() { "(none)" } else { k };
+                    match all.active_sets_ci95.get(k) {
+                        Some(ci) => format!("{name}={v:.4}±{ci:.1e}"),
+                        None => format!("{name}={v:.4}"),
+                    }
+                })
                 .collect();
             let _ = writeln!(s, "  active sets: {}", sets.join("  "));
             if all.fractions.contains_key("ambiguous") {

@@ -15,19 +15,30 @@
 //! bits: bits 20·(j mod 3) … of word 5 + ⌊j/3⌋, so an f64 sample hashes 8.
 //! The f32 draw is the f64 draw's top bits, so the two precisions draw the
 //! same samples (the accuracy ladder's f32-against-f64 rung relies on it).
+//!
+//! A drop's start position in its release box takes three more draws,
+//! positions 9–11, from a stream of its own ([`rng::DROP_START_STREAM`]).
+//!
+//! With RQMC (`sampling = "rqmc"`) draw j's top 32 bits are coordinate j
+//! of an Owen-scrambled Sobol point ([`sobol`]); the f64 draws' 20 low bits
+//! come from the same words as with MC. Nothing else changes: each draw
+//! position is one dimension of the point, skipped draws shift no other,
+//! and the transforms (Shoemake, Box–Muller, affine, Bryan) are the same.
 
 // Lane code indexes SoA arrays by lane and contact on purpose: the index
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 pub mod rng;
+pub mod sobol;
 
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::config::{OrientationDist, Scene, VectorDist};
+use crate::config::{OrientationDist, Sampling, Scene, VectorDist};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::sampler::rng::CounterRng;
+use crate::sampler::sobol::Sobol;
 
 /// Every row of the orientation matrix (see [`Sampler::with_matrix_rows`]).
 pub const ALL_ROWS: u8 = 0b111;
@@ -61,9 +72,27 @@ impl<T: Real> Inputs<T> {
     }
 }
 
+/// Where the top 32 bits of a draw come from.
+#[derive(Debug, Clone, Copy)]
+enum Points {
+    /// The counter-based generator's words (module notes).
+    Mc,
+    /// Scrambled Sobol points: draw j is dimension j.
+    Rqmc(Sobol),
+}
+
+/// The stream key of the RQMC scrambles (mixed with the seed).
+const SOBOL_STREAM: u64 = 0x50b0_1000_5c4a_3b1e;
+
+/// Draw positions of a drop's start position (module notes).
+const START_DRAW: u32 = 9;
+
 #[derive(Debug, Clone, Copy)]
 pub struct Sampler {
     rng: CounterRng,
+    /// A drop's start positions' words.
+    boxes: CounterRng,
+    points: Points,
     /// Draw orientations (false when nothing downstream reads them: a
     /// sphere's impact does not depend on its orientation). Skipped draws
     /// leave the identity and do not shift any other draw.
@@ -161,8 +190,16 @@ fn bryan_matrix<T: Real>(psi: T, theta: T, phi: T) -> [T; 9] {
 
 impl Sampler {
     pub fn new(scene: &Scene) -> Self {
+        let points = match scene.sampling() {
+            Sampling::Mc => Points::Mc,
+            Sampling::Rqmc { log2_points, .. } => {
+                Points::Rqmc(Sobol::new(scene.seed() ^ SOBOL_STREAM, log2_points))
+            }
+        };
         Self {
             rng: CounterRng::new(scene.seed() ^ rng::SAMPLE_STREAM, WORDS),
+            boxes: rng::drop_start_rng(scene.seed()),
+            points,
             orientation_needed: true,
             matrix_rows: ALL_ROWS,
             orientation: scene.orientation(),
@@ -236,14 +273,51 @@ impl Sampler {
     /// by two draws are hashed once).
     #[inline(always)]
     fn u<T: Real>(&self, sample: u64, j: u32) -> T {
-        let w = self.rng.bits(sample, j / 2);
-        let hi = if j % 2 == 0 {
-            (w >> 32) as u32
-        } else {
-            w as u32
-        };
-        let lo = self.rng.bits(sample, LOW_WORD + j / 3) >> (20 * (j % 3));
-        T::uniform_split(hi, lo)
+        T::uniform_split(self.top32(sample, j), self.low20(sample, j))
+    }
+
+    /// Draw j's top 32 bits (module notes).
+    #[inline(always)]
+    fn top32(&self, sample: u64, j: u32) -> u32 {
+        match self.points {
+            Points::Mc => {
+                let w = self.rng.bits(sample, j / 2);
+                if j % 2 == 0 {
+                    (w >> 32) as u32
+                } else {
+                    w as u32
+                }
+            }
+            Points::Rqmc(sobol) => sobol.point(sample, j as usize),
+        }
+    }
+
+    /// Draw j's low bits in f64 (the low 20 bits of the result count).
+    #[inline(always)]
+    fn low20(&self, sample: u64, j: u32) -> u64 {
+        self.rng.bits(sample, LOW_WORD + j / 3) >> (20 * (j % 3))
+    }
+
+    /// The three uniforms of sample `i`'s start position in a drop's
+    /// release box, in f64: draws 9–11 (module notes).
+    pub fn start_uniforms(&self, i: u64) -> [f64; 3] {
+        std::array::from_fn(|k| {
+            let bits = self.boxes.bits(i, k as u32);
+            match self.points {
+                Points::Mc => f64::uniform(bits),
+                Points::Rqmc(sobol) => {
+                    f64::uniform_split(sobol.point(i, (START_DRAW + k as u32) as usize), bits)
+                }
+            }
+        })
+    }
+
+    /// The RQMC replicate of sample `i` (none with MC).
+    pub fn replicate(&self, i: u64) -> Option<u64> {
+        match self.points {
+            Points::Mc => None,
+            Points::Rqmc(sobol) => Some(sobol.replicate(i)),
+        }
     }
 
     /// The uniform draws `LO .. HI` of samples `first .. first + BLOCK`
@@ -255,10 +329,30 @@ impl Sampler {
         first: u64,
         rows: &mut [[T; BLOCK]; 9],
     ) {
-        for s in 0..BLOCK {
-            let i = first + s as u64;
-            for j in LO..HI {
-                rows[j][s] = self.u(i, j as u32);
+        match self.points {
+            Points::Mc => {
+                for s in 0..BLOCK {
+                    let i = first + s as u64;
+                    for j in LO..HI {
+                        rows[j][s] = self.u(i, j as u32);
+                    }
+                }
+            }
+            Points::Rqmc(sobol) => {
+                // The top bits a dimension at a time (a block lies in one
+                // replicate: batches are whole replicates or parts of
+                // one; lanes past a batch's end draw valid, unused
+                // values), then the f64 low bits per sample as above.
+                let mut top = [[0u32; BLOCK]; 9];
+                for j in LO..HI {
+                    sobol.points(first, j, &mut top[j]);
+                }
+                for s in 0..BLOCK {
+                    let i = first + s as u64;
+                    for j in LO..HI {
+                        rows[j][s] = T::uniform_split(top[j][s], self.low20(i, j as u32));
+                    }
+                }
             }
         }
     }
@@ -400,10 +494,10 @@ impl Sampler {
         // Bits as the module notes say, written out independently of `u`.
         let u = |j: u32| -> f64 {
             let word = self.rng.bits(i, j / 2);
-            let top32 = if j % 2 == 0 {
-                word >> 32
-            } else {
-                word & 0xffff_ffff
+            let top32 = match self.points {
+                Points::Mc if j % 2 == 0 => word >> 32,
+                Points::Mc => word & 0xffff_ffff,
+                Points::Rqmc(sobol) => sobol.point(i, j as usize) as u64,
             };
             let low20 = (self.rng.bits(i, 5 + j / 3) >> (20 * (j % 3))) & 0xf_ffff;
             ((top32 << 20 | low20) as f64 + 0.5) / 4_503_599_627_370_496.0
@@ -464,6 +558,8 @@ mod tests {
     fn sampler(seed: u64) -> Sampler {
         Sampler {
             rng: CounterRng::new(seed, WORDS),
+            boxes: rng::drop_start_rng(seed),
+            points: Points::Mc,
             orientation_needed: true,
             matrix_rows: ALL_ROWS,
             orientation: OrientationDist::Uniform,
@@ -600,7 +696,8 @@ mod tests {
         partial_rows_are_the_whole_fill::<f64>();
     }
 
-    /// Every combination of the distributions (each pass of `fill` reads
+    /// Every combination of the distributions and both sampling methods
+    /// (each pass of `fill` reads
     /// its draws from the rows the uniform pass wrote, before the
     /// orientation overwrites them): the lanes give the reference sampler's
     /// inputs, in f64 to rounding, with orientations skipped or not.
@@ -630,9 +727,16 @@ mod tests {
         for orientation in orientations {
             for velocity in vectors {
                 for angular_velocity in vectors {
-                    for orientation_needed in [true, false] {
+                    for (orientation_needed, points) in [
+                        (true, Points::Mc),
+                        (false, Points::Mc),
+                        (true, Points::Rqmc(Sobol::new(3, 10))),
+                        (false, Points::Rqmc(Sobol::new(3, 10))),
+                    ] {
                         let s = Sampler {
                             rng: CounterRng::new(11, WORDS),
+                            boxes: rng::drop_start_rng(11),
+                            points,
                             orientation_needed,
                             matrix_rows: ALL_ROWS,
                             orientation,
@@ -640,7 +744,7 @@ mod tests {
                             angular_velocity,
                         };
                         s.fill(first, &mut x);
-                        let case = format!("{orientation:?} {velocity:?} {angular_velocity:?} {orientation_needed}");
+                        let case = format!("{orientation:?} {velocity:?} {angular_velocity:?} {orientation_needed} {points:?}");
                         for l in 0..BLOCK {
                             let (a, v, w) = s.reference(first + l as u64);
                             let a = if orientation_needed {

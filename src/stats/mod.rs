@@ -7,6 +7,7 @@ pub mod block;
 pub mod drops;
 mod histogram;
 mod moments;
+pub mod student;
 pub mod tree;
 
 pub use histogram::{bin_edges, scatter, LogHistogram, BINS, MAX_EXP, MIN_EXP, SUB_BITS};
@@ -22,6 +23,9 @@ pub struct RunResult {
     /// The finished accumulators of the batches run (all of them unless
     /// sharded).
     pub acc: RunAcc,
+    /// An RQMC run's replicates' accumulators, finished, in order (empty
+    /// for MC): the spread of their estimates gives the intervals.
+    pub replicates: Vec<RunAcc>,
     /// A sharded run's merge-tree nodes, unfinished, for `impactmc merge`
     /// (empty otherwise).
     pub nodes: Vec<(Node, RunAcc)>,

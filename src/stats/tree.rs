@@ -5,14 +5,15 @@
 
 use crate::stats::accumulators::{RunAcc, Shape};
 
-/// The maximal merge-tree nodes inside `range`, in batch order (what
-/// [`TreeStack`] holds after pushing the range's batches one by one).
-pub(crate) fn aligned_nodes(range: std::ops::Range<u64>) -> Vec<Node> {
+/// The maximal merge-tree nodes inside `range` up to level `max_level`, in
+/// batch order (what a [`TreeStack`] of that `max_level` holds after
+/// pushing the range's batches one by one).
+pub(crate) fn aligned_nodes(range: std::ops::Range<u64>, max_level: u32) -> Vec<Node> {
     let mut nodes = Vec::new();
     let mut b = range.start;
     while b < range.end {
         let mut level = 0;
-        while b % (2 << level) == 0 && b + (2 << level) <= range.end {
+        while level < max_level && b % (2 << level) == 0 && b + (2 << level) <= range.end {
             level += 1;
         }
         nodes.push(Node {
@@ -48,14 +49,23 @@ impl Node {
 }
 
 /// Batch results in batch order, merged as soon as both children of a tree
-/// node are complete: what remains are the maximal nodes inside the range
-/// seen (at most two per level).
-#[derive(Default)]
+/// node are complete, up to `max_level`: what remains are the maximal
+/// nodes inside the range seen, none above that level.
 pub(crate) struct TreeStack {
     pub(crate) nodes: Vec<(Node, RunAcc)>,
+    max_level: u32,
 }
 
 impl TreeStack {
+    /// Nodes merged up to `max_level` (a replicate's level keeps
+    /// replicates whole for the final reduction: [`reduce_tree`]).
+    pub(crate) fn new(max_level: u32) -> Self {
+        Self {
+            nodes: Vec::new(),
+            max_level,
+        }
+    }
+
     pub(crate) fn push(&mut self, batch: u64, acc: RunAcc) {
         self.push_node(
             Node {
@@ -70,8 +80,10 @@ impl TreeStack {
     /// come in batch order.
     pub(crate) fn push_node(&mut self, mut node: Node, mut acc: RunAcc) {
         while let Some(&(top, _)) = self.nodes.last() {
-            let siblings =
-                top.level == node.level && top.index % 2 == 0 && top.index + 1 == node.index;
+            let siblings = top.level == node.level
+                && node.level < self.max_level
+                && top.index % 2 == 0
+                && top.index + 1 == node.index;
             if !siblings {
                 break;
             }
@@ -88,54 +100,86 @@ impl TreeStack {
 }
 
 /// The root of the merge tree over `batches` batches from nodes that do not
-/// overlap. Batches no node covers count as empty; their number is returned
-/// with the (unfinished) accumulator.
-pub fn reduce_tree(nodes: Vec<(Node, RunAcc)>, batches: u64, shape: Shape) -> (RunAcc, u64) {
-    let mut map: std::collections::HashMap<Node, RunAcc> = nodes.into_iter().collect();
+/// overlap, and with `replicate_level` a copy of every node of that level
+/// on the way (an RQMC run's replicates, in order). Batches no node covers
+/// count as empty; their number is returned with the (unfinished)
+/// accumulators.
+pub fn reduce_tree(
+    nodes: Vec<(Node, RunAcc)>,
+    batches: u64,
+    shape: Shape,
+    replicate_level: Option<u32>,
+) -> Reduced {
+    let map: std::collections::HashMap<Node, RunAcc> = nodes.into_iter().collect();
     let mut levels = 0;
     while (1u64 << levels) < batches {
         levels += 1;
     }
-    let mut missing = 0;
-    let root = reduce_node(
-        Node {
-            level: levels,
-            index: 0,
-        },
+    let mut r = Reduction {
         batches,
-        &mut map,
-        &mut missing,
-        &|| RunAcc::shaped(shape),
-    );
-    (root, missing)
+        map,
+        missing: 0,
+        replicate_level,
+        replicates: Vec::new(),
+        shape,
+    };
+    let root = r.node(Node {
+        level: levels,
+        index: 0,
+    });
+    Reduced {
+        acc: root,
+        replicates: r.replicates,
+        missing: r.missing,
+    }
 }
 
-fn reduce_node(
-    node: Node,
+/// What [`reduce_tree`] gives.
+pub struct Reduced {
+    pub acc: RunAcc,
+    pub replicates: Vec<RunAcc>,
+    pub missing: u64,
+}
+
+struct Reduction {
     batches: u64,
-    map: &mut std::collections::HashMap<Node, RunAcc>,
-    missing: &mut u64,
-    empty: &dyn Fn() -> RunAcc,
-) -> RunAcc {
-    let range = node.batches();
-    if range.start >= batches {
-        return empty();
+    map: std::collections::HashMap<Node, RunAcc>,
+    missing: u64,
+    replicate_level: Option<u32>,
+    replicates: Vec<RunAcc>,
+    shape: Shape,
+}
+
+impl Reduction {
+    fn node(&mut self, node: Node) -> RunAcc {
+        let acc = self.merged(node);
+        if Some(node.level) == self.replicate_level && node.batches().start < self.batches {
+            self.replicates.push(acc.clone());
+        }
+        acc
     }
-    if let Some(acc) = map.remove(&node) {
-        return acc;
+
+    fn merged(&mut self, node: Node) -> RunAcc {
+        let range = node.batches();
+        if range.start >= self.batches {
+            return RunAcc::shaped(self.shape);
+        }
+        if let Some(acc) = self.map.remove(&node) {
+            return acc;
+        }
+        if node.level == 0 {
+            self.missing += 1;
+            return RunAcc::shaped(self.shape);
+        }
+        let child = |i| Node {
+            level: node.level - 1,
+            index: i,
+        };
+        let mut left = self.node(child(2 * node.index));
+        let mut right = self.node(child(2 * node.index + 1));
+        left.merge(&mut right);
+        left
     }
-    if node.level == 0 {
-        *missing += 1;
-        return empty();
-    }
-    let child = |i| Node {
-        level: node.level - 1,
-        index: i,
-    };
-    let mut left = reduce_node(child(2 * node.index), batches, map, missing, empty);
-    let mut right = reduce_node(child(2 * node.index + 1), batches, map, missing, empty);
-    left.merge(&mut right);
-    left
 }
 
 /// Shard `index` of `count`: a contiguous share of the batch indices.
@@ -184,12 +228,19 @@ mod tests {
     fn aligned_nodes_are_what_the_tree_stack_keeps() {
         for start in 0..40u64 {
             for end in start..start + 70 {
-                let mut stack = TreeStack::default();
-                for b in start..end {
-                    stack.push(b, RunAcc::new(1, 1));
+                for max_level in [2, u32::MAX] {
+                    let mut stack = TreeStack::new(max_level);
+                    for b in start..end {
+                        stack.push(b, RunAcc::new(1, 1));
+                    }
+                    let kept: Vec<Node> = stack.nodes.iter().map(|(n, _)| *n).collect();
+                    assert_eq!(
+                        aligned_nodes(start..end, max_level),
+                        kept,
+                        "batches {start}..{end} up to level {max_level}"
+                    );
+                    assert!(kept.iter().all(|n| n.level <= max_level));
                 }
-                let kept: Vec<Node> = stack.nodes.iter().map(|(n, _)| *n).collect();
-                assert_eq!(aligned_nodes(start..end), kept, "batches {start}..{end}");
             }
         }
     }

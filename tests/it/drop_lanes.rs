@@ -137,7 +137,6 @@ fn agreement(scene: &Scene, samples: u64) -> Agreement {
         unreachable!()
     };
     let sampler = Sampler::new(scene);
-    let boxes = impactmc::sampler::rng::drop_start_rng(scene.seed());
     let reach = scene.body().semi_axes().max_element();
     let mut a = Agreement::default();
     let (mut times, mut afters) = (Vec::new(), Vec::new());
@@ -152,7 +151,7 @@ fn agreement(scene: &Scene, samples: u64) -> Agreement {
                     ..prev.motion()
                 }
             }
-            _ => start_of(&start, &sampler, &boxes, row.walk.0),
+            _ => start_of(&start, &sampler, row.walk.0),
         };
         a.impacts += 1;
         let want = reference_impact(scene, from, law);
