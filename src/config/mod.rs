@@ -13,7 +13,7 @@ pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAM
 pub use raw::*;
 pub use scene::{
     load_scene, Contact, DropBox, NamedPlane, OrientationDist, Overrides, Placement, Precision,
-    Sampling, Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS,
-    MAX_SAMPLES,
+    Sampling, Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE,
+    MAX_LOG2_POINTS, MAX_SAMPLES,
 };
 pub use validate::{parse_law, MAX_DROP_PLANES};

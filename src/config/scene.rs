@@ -198,13 +198,18 @@ impl Scene {
     /// Parses scene text into its raw form; a syntax or type error names the
     /// line.
     pub fn parse(file: &str, text: &str) -> Result<RawScene, SceneError> {
-        toml::from_str(text).map_err(|e: toml::de::Error| SceneError {
-            file: file.to_string(),
-            line: e
+        toml::from_str(text).map_err(|e: toml::de::Error| {
+            let line = e
                 .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1),
-            field: "(toml)".into(),
-            message: e.message().trim().to_string(),
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            SceneError {
+                file: file.to_string(),
+                line,
+                field: line
+                    .and_then(|l| key_at(text, l))
+                    .unwrap_or_else(|| "(toml)".into()),
+                message: e.message().trim().to_string(),
+            }
         })
     }
 
@@ -470,6 +475,27 @@ impl SceneText {
     pub fn scene(&self, overrides: &Overrides) -> Result<Scene, SceneError> {
         Scene::validate(&self.file, &self.text, self.raw(overrides)?)
     }
+}
+
+/// The dotted key a `key = value` line sets (with its table's header),
+/// for a type error the TOML parser reports by line only.
+fn key_at(text: &str, line: usize) -> Option<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let (key, _) = lines.get(line - 1)?.split_once('=')?;
+    let key = key.trim();
+    if key.is_empty() || key.starts_with(['[', '#']) {
+        return None;
+    }
+    let table = lines[..line - 1]
+        .iter()
+        .rev()
+        .map(|l| l.trim())
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_matches(['[', ']']).trim().to_string());
+    Some(match table {
+        Some(t) => format!("{t}.{key}"),
+        None => key.to_string(),
+    })
 }
 
 /// Loads a scene file and applies overrides.

@@ -247,6 +247,7 @@ fn orientation(raw: &RawScene) -> Result<OrientationDist, Bad> {
 /// smallest power of two of points that makes at least `samples` in all
 /// (at most 2³² per replicate).
 fn sampling(raw: &RawScene) -> Result<Sampling, Bad> {
+    const MAX_REPLICATES: u64 = 1 << 20;
     match raw.sampling.as_deref().unwrap_or("mc") {
         "mc" => match raw.replicates {
             None => Ok(Sampling::Mc),
@@ -257,10 +258,10 @@ fn sampling(raw: &RawScene) -> Result<Sampling, Bad> {
         },
         "rqmc" => {
             let replicates = raw.replicates.unwrap_or(Sampling::DEFAULT_REPLICATES);
-            if replicates < 2 {
+            if !(2..=MAX_REPLICATES).contains(&replicates) {
                 return Err(bad(
                     &["replicates"],
-                    format!("must be at least 2 (intervals come from the replicates' spread), got {replicates}"),
+                    format!("must be in 2..=2^20 (intervals come from the replicates' spread), got {replicates}"),
                 ));
             }
             if raw.samples < replicates {

@@ -471,6 +471,11 @@ fn arrays(selection: &Selection, point: Option<u32>, mut b: SampleRows) -> Vec<A
     if let Some(p) = point {
         cols.push(Arc::new(UInt32Array::from(vec![p; n])));
     }
+    if let Some(log2) = selection.replicate_log2() {
+        cols.push(Arc::new(UInt32Array::from_iter_values(
+            b.index.iter().map(|&i| (i >> log2) as u32),
+        )));
+    }
     cols.push(Arc::new(UInt64Array::from(std::mem::take(&mut b.index))));
     let laws = selection.laws();
     if !laws.is_empty() {
@@ -577,6 +582,9 @@ fn schema_of(selection: &Selection, sweep: bool) -> Schema {
     let mut fields = Vec::new();
     if sweep {
         fields.push(Field::new("point", DataType::UInt32, false));
+    }
+    if selection.replicate_log2().is_some() {
+        fields.push(Field::new("replicate", DataType::UInt32, false));
     }
     fields.push(Field::new("sample", DataType::UInt64, false));
     if !selection.laws().is_empty() {

@@ -35,9 +35,7 @@ impl Summary {
         }
         self.walk(&mut |e| {
             let values = by_path.get(e.path).filter(|v| v.len() == r);
-            Some(values.map_or((f64::NAN, f64::NAN), |v| {
-                replicate_interval(v, e.mc_ci95)
-            }))
+            Some(values.map_or((f64::NAN, f64::NAN), |v| replicate_interval(v, e.mc_ci95)))
         });
     }
 
@@ -84,7 +82,11 @@ impl Summary {
         for (pair, p) in self.paired.0.iter_mut() {
             let at = format!("paired/{pair}");
             stat(&format!("{at}/energy_ratio"), &mut p.energy_ratio, f);
-            stat(&format!("{at}/omega_after_norm"), &mut p.omega_after_norm, f);
+            stat(
+                &format!("{at}/omega_after_norm"),
+                &mut p.omega_after_norm,
+                f,
+            );
             stat(
                 &format!("{at}/velocity_after_norm"),
                 &mut p.velocity_after_norm,
@@ -108,7 +110,11 @@ impl Summary {
             for b in d.bounces.iter_mut() {
                 let at = format!("drops/{law}/{}", b.bounce);
                 stat(&format!("{at}/energy_ratio"), &mut b.energy_ratio, f);
-                stat(&format!("{at}/interval_seconds"), &mut b.interval_seconds, f);
+                stat(
+                    &format!("{at}/interval_seconds"),
+                    &mut b.interval_seconds,
+                    f,
+                );
                 stat(&format!("{at}/speed_before"), &mut b.speed_before, f);
             }
         }

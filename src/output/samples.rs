@@ -5,7 +5,7 @@
 
 use glam::{DMat3, DQuat};
 
-use crate::config::{Placement, Precision, Scene};
+use crate::config::{Placement, Precision, Sampling, Scene};
 use crate::drop::Strike;
 use crate::kernel::{
     active_mask, sticking_mask, Geometry, LawOut, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
@@ -51,6 +51,9 @@ pub struct Selection {
     laws: Vec<String>,
     /// The float columns' type.
     precision: Precision,
+    /// An RQMC run's points per replicate, as a power of two: its rows
+    /// have a `replicate` key (`sample >> log2`).
+    replicate_log2: Option<u32>,
 }
 
 impl Selection {
@@ -91,6 +94,7 @@ impl Selection {
             ints,
             laws: Vec::new(),
             precision,
+            replicate_log2: None,
         })
     }
 
@@ -103,15 +107,22 @@ impl Selection {
             precision,
             laws,
         } = RowLayout::of(scene);
-        // `law`, like `sample`, is a key of rows per law: always kept.
+        let replicate_log2 = match scene.sampling() {
+            Sampling::Mc => None,
+            Sampling::Rqmc { log2_points, .. } => Some(log2_points),
+        };
+        // `law`, like `sample`, is a key of rows per law, and `replicate`
+        // of an RQMC run's rows: always kept.
         let wanted: Option<Vec<String>> = wanted.map(|w| {
             w.iter()
                 .filter(|c| laws.is_empty() || *c != "law")
+                .filter(|c| replicate_log2.is_none() || *c != "replicate")
                 .cloned()
                 .collect()
         });
         let mut s = Self::new(floats, ints, precision, wanted.as_deref())?;
         s.laws = laws;
+        s.replicate_log2 = replicate_log2;
         Ok(s)
     }
 
@@ -139,6 +150,12 @@ impl Selection {
     /// [`SampleRows::fill_only`]).
     pub fn float_mask(&self) -> &[bool] {
         &self.keep_float
+    }
+
+    /// An RQMC run's points per replicate as a power of two: its rows'
+    /// `replicate` is `sample >> log2`.
+    pub fn replicate_log2(&self) -> Option<u32> {
+        self.replicate_log2
     }
 
     /// A drop scene's law names (empty for a contact scene).

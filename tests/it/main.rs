@@ -30,6 +30,7 @@ mod plots;
 mod python;
 mod ratios;
 mod readers;
+mod rqmc;
 mod run_cli;
 mod shards;
 mod slurm;
