@@ -338,11 +338,18 @@ impl Sampler {
                     }
                 }
             }
+            // A dimension at a time (a block lies in one replicate:
+            // batches are whole replicates or parts of one; lanes past a
+            // batch's end draw valid, unused values). An f32 draw is its
+            // top bits alone.
+            Points::Rqmc(sobol) if size_of::<T>() == 4 => {
+                for j in LO..HI {
+                    sobol.points_map(first, j, &mut rows[j], |hi| T::uniform_split(hi, 0));
+                }
+            }
             Points::Rqmc(sobol) => {
-                // The top bits a dimension at a time (a block lies in one
-                // replicate: batches are whole replicates or parts of
-                // one; lanes past a batch's end draw valid, unused
-                // values), then the f64 low bits per sample as above.
+                // The top bits first, then the f64 low bits per sample as
+                // above (each word hashed once).
                 let mut top = [[0u32; BLOCK]; 9];
                 for j in LO..HI {
                     sobol.points(first, j, &mut top[j]);

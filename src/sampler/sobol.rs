@@ -218,6 +218,18 @@ impl Sobol {
     /// XOR and the scramble. The same values as [`Self::point`].
     #[inline(always)]
     pub fn points<const N: usize>(&self, first: u64, d: usize, out: &mut [u32; N]) {
+        self.points_map(first, d, out, |x| x);
+    }
+
+    /// [`Self::points`], each point mapped by `f` on the way out.
+    #[inline(always)]
+    pub fn points_map<U, const N: usize>(
+        &self,
+        first: u64,
+        d: usize,
+        out: &mut [U; N],
+        f: impl Fn(u32) -> U,
+    ) {
         debug_assert_eq!(
             self.replicate(first),
             self.replicate(first + N as u64 - 1),
@@ -236,10 +248,15 @@ impl Sobol {
         ];
         let table = &t.first[d];
         let low = (k0 & (TABLE as u64 - 1)) as usize;
-        for s in 0..N {
-            let j = low + s;
-            let x = base[j >> TABLE_BITS] ^ table[j & (TABLE - 1)];
-            out[s] = sc.apply(x);
+        // Two contiguous segments (the loops vectorise): the samples in the
+        // first run, then those in the next.
+        let split = N.min(TABLE - low);
+        let (head, tail) = out.split_at_mut(split);
+        for (o, &x) in head.iter_mut().zip(&table[low..low + split]) {
+            *o = f(sc.apply(base[0] ^ x));
+        }
+        for (o, &x) in tail.iter_mut().zip(&table[..N - split]) {
+            *o = f(sc.apply(base[1] ^ x));
         }
     }
 }
