@@ -643,13 +643,21 @@ mod tests {
     /// whole fill's matrix bit for bit, in both lane types (a lane the
     /// reference recomputes is completed with it).
     fn partial_rows_are_the_whole_fill<T: Real>() {
+        for points in [Points::Mc, Points::Rqmc(Sobol::new(5, 11))] {
+            partial_rows_are_the_whole_fill_with::<T>(points);
+        }
+    }
+
+    fn partial_rows_are_the_whole_fill_with<T: Real>(points: Points) {
         let mut s = sampler(5);
+        s.points = points;
         s.velocity = VectorDist::Normal {
             mean: DVec3::new(0.0, 0.0, -1.0),
             sd: DVec3::splat(0.5),
         };
         s.angular_velocity = s.velocity;
-        let first = 7 * BLOCK as u64;
+        // RQMC: across the lookup table's runs, in one replicate.
+        let first = 5 * BLOCK as u64;
         let mut whole = Inputs::<T>::new();
         // `orientation_of` is every distribution's fill, lane by lane (the
         // Haar one last: `whole` keeps it for the partial fills below).
@@ -729,7 +737,9 @@ mod tests {
             },
             VectorDist::Fixed(DVec3::new(0.25, -0.5, 2.0)),
         ];
-        let first = 3 * BLOCK as u64;
+        // RQMC: samples 960..1152 of replicate 0 of 2^11, across the
+        // lookup table's runs.
+        let first = 5 * BLOCK as u64;
         let mut x = Inputs::<f64>::new();
         for orientation in orientations {
             for velocity in vectors {
@@ -737,8 +747,8 @@ mod tests {
                     for (orientation_needed, points) in [
                         (true, Points::Mc),
                         (false, Points::Mc),
-                        (true, Points::Rqmc(Sobol::new(3, 10))),
-                        (false, Points::Rqmc(Sobol::new(3, 10))),
+                        (true, Points::Rqmc(Sobol::new(3, 11))),
+                        (false, Points::Rqmc(Sobol::new(3, 11))),
                     ] {
                         let s = Sampler {
                             rng: CounterRng::new(11, WORDS),

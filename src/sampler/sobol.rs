@@ -109,14 +109,14 @@ fn gray(i: u64) -> u64 {
     i ^ (i >> 1)
 }
 
-/// XOR of `v[k]` over the set bits k of `g`.
+/// XOR of `v[k]` over the set bits k < 32 of `g`.
 #[inline(always)]
 fn xor_of(v: &[u32; DIGITS as usize], g: u64) -> u32 {
+    let mut g = g & 0xffff_ffff;
     let mut x = 0;
-    for (k, vk) in v.iter().enumerate() {
-        if (g >> k) & 1 == 1 {
-            x ^= vk;
-        }
+    while g != 0 {
+        x ^= v[g.trailing_zeros() as usize];
+        g &= g - 1;
     }
     x
 }
