@@ -18,6 +18,10 @@ SCENES = [
     ("configs/floor_friction.toml", 20_000, [], {}),
     ("configs/corner3.toml", 5_000, ["--precision", "f64", "--law", "newton", "--law", "paper"],
      {"precision": "f64", "laws": ["newton", "paper"]}),
+    # RQMC: sampling and replicates are scene fields like any other.
+    ("configs/corner3.toml", 20_000, ["--sampling", "rqmc", "--replicates", "8"],
+     {"sampling": "rqmc", "replicates": 8}),
+    ("configs/drop_corner.toml", 2_000, ["--sampling", "rqmc"], {"sampling": "rqmc"}),
 ]
 
 

@@ -21,13 +21,16 @@ type FirstImpact = (f64, DVec3, DVec3, f64);
 /// finest (the scene's law). Cost: one-thread ns per sample of the first
 /// impact.
 pub fn flight_ladder(
+    src: &SceneText,
     scene: &Scene,
     start: &DropBox,
     knobs: Knobs,
     steps: &mut Steps,
 ) -> Result<Ladder, LadderError> {
-    // The reference, each step, each tolerance.
-    steps.begin(1 + knobs.flight_steps.len() + knobs.toi_tolerances.len())?;
+    // The reference, each step, each tolerance, each sample count.
+    steps.begin(
+        1 + knobs.flight_steps.len() + knobs.toi_tolerances.len() + knobs.sample_counts.len(),
+    )?;
     use crate::drop::{first_impact, start_of};
     let law = scene.laws()[0];
     let sampler = crate::sampler::Sampler::new(scene);
@@ -117,6 +120,7 @@ pub fn flight_ladder(
             )
         });
     }
+    let counts = count_rows(src, &law.name(), &knobs.sample_counts, steps)?;
     Ok(Ladder {
         friction: false,
         reference_unseparated: 0,
@@ -124,6 +128,6 @@ pub fn flight_ladder(
         law_for_counts: law.name(),
         knobs,
         rungs,
-        counts: Vec::new(),
+        counts,
     })
 }

@@ -77,7 +77,7 @@ pub fn ladder_of(src: &SceneText, steps: &mut Steps) -> Result<Ladder, LadderErr
     let knobs = Knobs::from_raw(&file, base.raw())?;
     // The ladder's body by the kind of scene: flights for a drop.
     if let Placement::Drop(start) = base.placement() {
-        return flight_ladder(&base, start, knobs, steps);
+        return flight_ladder(src, &base, start, knobs, steps);
     }
     let n = knobs.samples;
     let touching = base.touching_planes();
@@ -176,24 +176,7 @@ pub fn ladder_of(src: &SceneText, steps: &mut Steps) -> Result<Ladder, LadderErr
     rungs.extend(contact_point_rungs(&newton64, &inputs));
 
     let law_for_counts = base.laws()[0].name();
-    let mut counts = Vec::new();
-    for &samples in &knobs.sample_counts {
-        let scene = variant(src, vec![law_for_counts.clone()], base.precision(), samples)?;
-        let r = run(&scene, &RunOptions::default()).expect("thread pool");
-        let m = &r.acc.laws[0].energy_ratio.moments;
-        steps.step(&format!(
-            "N = {samples}: {:.3} s, ci95 {:.2e}",
-            r.wall_seconds,
-            m.ci95()
-        ))?;
-        counts.push(CountRow {
-            samples,
-            wall_seconds: r.wall_seconds,
-            threads: r.threads,
-            mean: m.mean(),
-            ci95: m.ci95(),
-        });
-    }
+    let counts = count_rows(src, &law_for_counts, &knobs.sample_counts, steps)?;
     Ok(Ladder {
         friction: rough,
         reference_unseparated,

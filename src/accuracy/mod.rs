@@ -24,7 +24,7 @@ use std::time::Instant;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
-use crate::config::{RawScene, Scene, SceneError};
+use crate::config::{Overrides, RawScene, Scene, SceneError, SceneText};
 use crate::engine::{SampleOutcome, Watch};
 use crate::physics::{damping_table, solve_compliant_with, CompliantParams, Pose, State};
 
@@ -127,14 +127,12 @@ impl Knobs {
             compliant_steps: a.compliant_steps.unwrap_or(vec![12, 25, 50, 100, 200, 400]),
             reference_steps: a.reference_steps.unwrap_or(1600),
             pgs_sweeps: a.pgs_sweeps.unwrap_or(vec![1, 2, 4, 8, 16, 32, 64]),
-            sample_counts: a.sample_counts.unwrap_or(vec![
-                1_000,
-                10_000,
-                100_000,
-                1_000_000,
-                10_000_000,
-                100_000_000,
-            ]),
+            // A drop sample costs hundreds of contact samples.
+            sample_counts: a.sample_counts.unwrap_or(if raw.placement.drop.is_some() {
+                vec![1_000, 10_000, 100_000]
+            } else {
+                vec![1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000]
+            }),
             timing_samples: a.timing_samples.unwrap_or(1_000_000),
             flight_steps: a
                 .flight_steps
@@ -419,14 +417,87 @@ impl Rung {
     }
 }
 
-/// One point of the sample-count rung.
+/// One point of the sample-count rung: a run of the scene's first law
+/// with `sampling` (`mc`, or `rqmc` with its default replicates).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CountRow {
+    /// `mc` or `rqmc`.
+    pub sampling: String,
+    /// The samples run (RQMC: whole replicates, at least those asked for).
     pub samples: u64,
     pub wall_seconds: f64,
     pub threads: usize,
+    /// The mean energy ratio (a drop's first impact) and its ci95.
     pub mean: f64,
     pub ci95: f64,
+    /// The most frequent active set (a drop: set of planes first hit),
+    /// its share of the samples and the share's ci95.
+    pub share_name: String,
+    pub share: f64,
+    pub share_ci95: f64,
+}
+
+/// The sample-count rungs: for each count, a run of `law` at the scene's
+/// precision on all cores with MC and with RQMC, the 95 % half-widths of
+/// the mean energy ratio and of the most frequent active set's share as
+/// the summary reports them (RQMC: from its replicates).
+pub(crate) fn count_rows(
+    src: &SceneText,
+    law: &str,
+    counts: &[u64],
+    steps: &mut Steps,
+) -> Result<Vec<CountRow>, LadderError> {
+    let mut rows = Vec::new();
+    for &samples in counts {
+        let mut line = format!("N = {samples}:");
+        for sampling in ["mc", "rqmc"] {
+            if sampling == "rqmc" && samples < crate::config::Sampling::DEFAULT_REPLICATES {
+                continue;
+            }
+            let scene = src.scene(&Overrides {
+                laws: Some(vec![law.to_string()]),
+                samples: Some(samples),
+                sampling: Some(sampling.into()),
+                ..Default::default()
+            })?;
+            let r = crate::engine::run(&scene, &crate::engine::RunOptions::default())
+                .expect("thread pool");
+            let summary = crate::output::summary::Summary::new(&scene, &r);
+            let all = summary.all_group(law).expect("the law's summary");
+            let er = &all.stats["energy_ratio"];
+            let (share_name, share) = all
+                .active_sets
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(k, v)| (k.clone(), *v))
+                .unwrap_or_default();
+            let share_ci95 = match all.active_sets_ci95.get(&share_name) {
+                Some(&ci) => ci,
+                None => crate::output::summary::proportion_ci95(share, all.samples),
+            };
+            line += &format!(
+                " {sampling} {} samples {:.3} s, ci95 {:.2e} (share {share_ci95:.2e});",
+                r.acc.laws[0].samples, r.wall_seconds, er.ci95
+            );
+            rows.push(CountRow {
+                sampling: sampling.into(),
+                samples: r.acc.laws[0].samples,
+                wall_seconds: r.wall_seconds,
+                threads: r.threads,
+                mean: er.mean,
+                ci95: er.ci95,
+                share_name: if share_name.is_empty() {
+                    "(none)".into()
+                } else {
+                    share_name
+                },
+                share,
+                share_ci95,
+            });
+        }
+        steps.step(line.trim_end_matches(';'))?;
+    }
+    Ok(rows)
 }
 
 pub struct Ladder {

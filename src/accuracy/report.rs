@@ -49,7 +49,10 @@ impl Ladder {
             mean.push(None);
         }
         for c in &self.counts {
-            family.push("sample_count".into());
+            family.push(match c.sampling.as_str() {
+                "mc" => "sample_count".into(),
+                other => format!("sample_count_{other}"),
+            });
             rung.push(format!("n{}", c.samples));
             precision.push(String::new());
             ns.push(Some(
@@ -137,6 +140,27 @@ impl Ladder {
         columns.push(Column::new("wall_seconds".into(), wall));
         columns.push(Column::new("energy_ratio_mean".into(), mean));
         columns.push(Column::new("energy_ratio_ci95".into(), ci));
+        // The sample-count rows: the most frequent active set's share.
+        let counts = |f: &dyn Fn(&CountRow) -> Option<f64>| -> Vec<Option<f64>> {
+            self.rungs
+                .iter()
+                .map(|_| None)
+                .chain(self.counts.iter().map(f))
+                .collect()
+        };
+        columns.push(Column::new(
+            "share_set".into(),
+            self.rungs
+                .iter()
+                .map(|_| None)
+                .chain(self.counts.iter().map(|c| Some(c.share_name.clone())))
+                .collect::<Vec<Option<String>>>(),
+        ));
+        columns.push(Column::new("share".into(), counts(&|c| Some(c.share))));
+        columns.push(Column::new(
+            "share_ci95".into(),
+            counts(&|c| Some(c.share_ci95).filter(|x| x.is_finite())),
+        ));
         DataFrame::new(height, columns)
     }
 
@@ -269,17 +293,21 @@ impl Ladder {
             ));
         }
         s.push_str(&format!(
-            "\n**Sample count** ({} law, all cores): the 95 % CI half-width of the mean energy ratio against wall time.\n\n| N | wall (s) | mean | ci95 | ci95·√N |\n|---|---|---|---|---|\n",
+            "\n**Sample count** ({} law, all cores): the 95 % CI half-width of the mean energy ratio, and of the most frequent active set's share, against wall time, with independent samples (MC) and with 16 replicates of scrambled Sobol points (RQMC, which runs whole replicates: at least N samples).\n\n| N | sampling | wall (s) | mean | ci95 | ci95·√N | share | share ci95 |\n|---|---|---|---|---|---|---|---|\n",
             self.law_for_counts
         ));
         for c in &self.counts {
             s.push_str(&format!(
-                "| {} | {:.3} | {:.6} | {:.2e} | {:.3} |\n",
+                "| {} | {} | {:.3} | {:.6} | {:.2e} | {:.3} | {} {:.4} | {:.2e} |\n",
                 c.samples,
+                c.sampling,
                 c.wall_seconds,
                 c.mean,
                 c.ci95,
-                c.ci95 * (c.samples as f64).sqrt()
+                c.ci95 * (c.samples as f64).sqrt(),
+                c.share_name,
+                c.share,
+                c.share_ci95
             ));
         }
         s
@@ -530,29 +558,35 @@ fn draw(ladder: &Ladder, root: &crate::output::plots::Area) -> Result<(), String
             .y_label_formatter(&|y| format!("{y:.0e}"))
             .draw()
             .map_err(|x| e(&x))?;
-        // 1/√N through the largest N, drawn against the measured walls.
-        let last = cs[cs.len() - 1];
-        let c = last.ci95 * (last.samples as f64).sqrt();
-        chart
-            .draw_series(LineSeries::new(
-                cs.iter()
-                    .map(|r| (r.wall_seconds.max(1e-6), c / (r.samples as f64).sqrt())),
-                BLACK.stroke_width(1),
-            ))
-            .map_err(|x| e(&x))?
-            .label("σ·1.96/√N")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-        chart
-            .draw_series(cs.iter().map(|r| {
-                EmptyElement::at((r.wall_seconds.max(1e-6), r.ci95))
-                    + Circle::new((0, 0), 4, BLUE.filled())
-                    + Text::new(
-                        format!("N={:.0e}", r.samples as f64),
-                        (6, -12),
-                        ("sans-serif", 13),
-                    )
-            }))
-            .map_err(|x| e(&x))?;
+        // 1/√N through the largest MC N, drawn against the measured walls.
+        let mc: Vec<&&CountRow> = cs.iter().filter(|c| c.sampling == "mc").collect();
+        if let Some(last) = mc.last() {
+            let c = last.ci95 * (last.samples as f64).sqrt();
+            chart
+                .draw_series(LineSeries::new(
+                    mc.iter()
+                        .map(|r| (r.wall_seconds.max(1e-6), c / (r.samples as f64).sqrt())),
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(|x| e(&x))?
+                .label("MC: σ·1.96/√N")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+        }
+        for (sampling, colour) in [("mc", BLUE), ("rqmc", RED)] {
+            chart
+                .draw_series(cs.iter().filter(|r| r.sampling == sampling).map(|r| {
+                    EmptyElement::at((r.wall_seconds.max(1e-6), r.ci95))
+                        + Circle::new((0, 0), 4, colour.filled())
+                        + Text::new(
+                            format!("N={:.0e}", r.samples as f64),
+                            (6, -12),
+                            ("sans-serif", 13),
+                        )
+                }))
+                .map_err(|x| e(&x))?
+                .label(sampling)
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+        }
         chart
             .configure_series_labels()
             .border_style(BLACK)

@@ -388,13 +388,19 @@ pub fn active_set_name(mask: usize, names: &[String]) -> String {
         .join("+")
 }
 
+/// The 95 % half-width of a proportion `p` of `n` samples (normal
+/// approximation).
+pub fn proportion_ci95(p: f64, n: u64) -> f64 {
+    1.96 * (p * (1.0 - p) / n as f64).sqrt()
+}
+
 /// Proportion and its 95 % half-width (normal approximation).
 pub fn proportion(k: u64, n: u64) -> (f64, f64) {
     if n == 0 {
         return (f64::NAN, f64::NAN);
     }
     let p = k as f64 / n as f64;
-    (p, 1.96 * (p * (1.0 - p) / n as f64).sqrt())
+    (p, proportion_ci95(p, n))
 }
 
 /// The three headline statistics, by name.

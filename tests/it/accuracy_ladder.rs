@@ -289,8 +289,34 @@ fn accuracy_command_writes_table_plot_and_parquet() {
     let svg = std::fs::read_to_string(d.join("out/accuracy.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
     let df = ladder_frame(&d.join("out"));
-    // 2 + 2 sweeps + newton + poisson laws, 2 compliant, f32, 2 contact point, 2 counts.
-    assert_eq!(df.height(), 12, "{df}");
+    // 2 + 2 sweeps + newton + poisson laws, 2 compliant, f32, 2 contact
+    // point, 2 counts with MC and with RQMC.
+    assert_eq!(df.height(), 14, "{df}");
+    // The sample-count rungs: RQMC runs whole replicates (16 × 1024 for
+    // 10⁴) and its interval per √N is narrower than MC's there.
+    let rows = |family: &str| -> Vec<(u64, f64)> {
+        let f = df.column("family").unwrap().str().unwrap().clone();
+        let n = df.column("samples").unwrap().u64().unwrap().clone();
+        let ci = df
+            .column("energy_ratio_ci95")
+            .unwrap()
+            .f64()
+            .unwrap()
+            .clone();
+        (0..df.height())
+            .filter(|&i| f.get(i) == Some(family))
+            .map(|i| (n.get(i).unwrap(), ci.get(i).unwrap()))
+            .collect()
+    };
+    let (mc, rqmc) = (rows("sample_count"), rows("sample_count_rqmc"));
+    assert_eq!(mc.iter().map(|r| r.0).collect::<Vec<_>>(), [1000, 10000]);
+    assert_eq!(rqmc.iter().map(|r| r.0).collect::<Vec<_>>(), [1024, 16384]);
+    let per_root_n = |(n, ci): (u64, f64)| ci * (n as f64).sqrt();
+    assert!(
+        per_root_n(rqmc[1]) < 0.9 * per_root_n(mc[1]),
+        "mc {mc:?}, rqmc {rqmc:?}"
+    );
+    assert!(stdout.contains("| 16384 | rqmc |"), "{stdout}");
     // Bad knobs: one error naming the field and the value.
     std::fs::write(
         &scene,
@@ -317,12 +343,25 @@ fn flight_rungs_converge_with_step_and_tolerance() {
     knobs.samples = 300;
     knobs.flight_steps = vec![4e-2, 2e-2, 1e-2, 5e-3];
     knobs.toi_tolerances = vec![1e-4, 1e-6, 1e-8];
+    knobs.sample_counts = vec![1000];
     let impactmc::config::Placement::Drop(start) = s.placement() else {
         panic!("drop_corner is a drop scene");
     };
     let mut quiet = |_: &str| {};
     let steps = &mut impactmc::accuracy::Steps::new(&mut quiet, None);
-    let ladder = impactmc::accuracy::flight_ladder(&s, start, knobs, steps).unwrap();
+    let src = impactmc::config::SceneText::read(&path).unwrap();
+    let ladder = impactmc::accuracy::flight_ladder(&src, &s, start, knobs, steps).unwrap();
+    // The first impact's sample-count rungs, MC and RQMC (2^6 × 16).
+    let counts: Vec<(&str, u64)> = ladder
+        .counts
+        .iter()
+        .map(|c| (c.sampling.as_str(), c.samples))
+        .collect();
+    assert_eq!(counts, [("mc", 1000), ("rqmc", 1024)]);
+    assert!(ladder
+        .counts
+        .iter()
+        .all(|c| c.ci95 > 0.0 && c.share_ci95 > 0.0));
     let errs = |family: &str| -> Vec<f64> {
         ladder
             .rungs
