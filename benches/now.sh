@@ -16,7 +16,7 @@ rows=(
     "S1 \`floor\`|configs/floor.toml|newton|f64|100000000|"
     "S3 \`corner3\`|configs/corner3.toml|newton|f32|200000000|"
     "S3 \`corner3\`|configs/corner3.toml|newton|f64|100000000|"
-    "S3 \`corner3\`, \`--sampling rqmc\` (16 × 2²⁴ samples)|configs/corner3.toml|newton|f32|200000000|--sampling rqmc"
+    "S3 \`corner3\`, \`--sampling rqmc\` (its default 10⁷ samples: 16 × 2²⁰)|configs/corner3.toml|newton|f32|10000000|--sampling rqmc"
     "\`drop_corner\`, 5 impacts|configs/drop_corner.toml|newton|f32|600000|"
     "\`drop_corner\`, 5 impacts|configs/drop_corner.toml|newton|f64|400000|"
     "\`drop_corner\`, first impact only (\`bounces = 1\`)|$out/drop_corner_1.toml|newton|f32|2000000|"

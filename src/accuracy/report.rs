@@ -198,6 +198,7 @@ impl Ladder {
                     ));
                 }
             }
+            s.push_str(&self.count_table());
             return s;
         }
         let stronge = self.rungs.iter().any(|r| r.vs_stronge.is_some());
@@ -292,8 +293,15 @@ impl Ladder {
                 g(b)
             ));
         }
+        s.push_str(&self.count_table());
+        s
+    }
+
+    /// The sample-count rungs as a Markdown table.
+    fn count_table(&self) -> String {
+        let mut s = String::new();
         s.push_str(&format!(
-            "\n**Sample count** ({} law, all cores): the 95 % CI half-width of the mean energy ratio, and of the most frequent active set's share, against wall time, with independent samples (MC) and with 16 replicates of scrambled Sobol points (RQMC, which runs whole replicates: at least N samples).\n\n| N | sampling | wall (s) | mean | ci95 | ci95·√N | share | share ci95 |\n|---|---|---|---|---|---|---|---|\n",
+            "\n**Sample count** ({} law, all cores): the 95 % CI half-width of the mean energy ratio, and of the most frequent active set's share (a drop scene: of each sample's first impact), against wall time, with independent samples (MC) and with 16 replicates of scrambled Sobol points (RQMC, which runs whole replicates: at least N samples).\n\n| N | sampling | wall (s) | mean | ci95 | ci95·√N | share | share ci95 |\n|---|---|---|---|---|---|---|---|\n",
             self.law_for_counts
         ));
         for c in &self.counts {
