@@ -38,7 +38,7 @@ pub struct RunArgs {
     /// Overrides the scene's `sampling`.
     #[arg(long, value_name = "mc|rqmc")]
     sampling: Option<String>,
-    /// RQMC replicates, at least 2 (default 16; overrides the scene's
+    /// RQMC replicates, 2 to 2^20 (default 16; overrides the scene's
     /// `replicates`).
     #[arg(long, value_name = "R")]
     replicates: Option<u64>,

@@ -59,10 +59,11 @@ type Row<'a> = (
     std::collections::HashMap<&'a str, &'a StatSummary>,
     Named<f64>,
     Named<f64>,
+    Named<f64>,
 );
 
-const STAT_FIELDS: [&str; 9] = [
-    "n", "mean", "ci95", "sd", "min", "p01", "median", "p99", "max",
+const STAT_FIELDS: [&str; 10] = [
+    "n", "mean", "ci95", "gain", "sd", "min", "p01", "median", "p99", "max",
 ];
 
 /// `summary.parquet`: one row per (law, contact set), and for a drop scene
@@ -71,7 +72,7 @@ const STAT_FIELDS: [&str; 9] = [
 /// (`all`, `(none)` or the `+`-joined active planes), `bounce` (drop
 /// scenes only; null on the first-impact rows), `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
 /// group keeps no quantiles), and `fraction_FLAG` / `fraction_FLAG_ci95` on
-/// the "all" rows. Units are in the file's key-value metadata (`units`).
+/// the "all" rows; an RQMC run adds `STAT_gain` and `fraction_FLAG_gain`. Units are in the file's key-value metadata (`units`).
 fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut law_col = Vec::new();
     let mut group_col = Vec::new();
@@ -101,7 +102,12 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                     fraction_names.push(name.clone());
                 }
             }
-            rows.push((stats, g.fractions.clone(), g.fractions_ci95.clone()));
+            rows.push((
+                stats,
+                g.fractions.clone(),
+                g.fractions_ci95.clone(),
+                g.fractions_gain.clone(),
+            ));
             bounce_col.push(None);
         }
         // A drop scene's bounces: one row each, over the samples reaching it.
@@ -131,7 +137,7 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                 fractions.insert(name, p);
                 cis.insert(name, ci);
             }
-            rows.push((stats, fractions, cis));
+            rows.push((stats, fractions, cis, Named::default()));
         }
     }
     let height = rows.len();
@@ -147,8 +153,10 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
         Column::new("samples".into(), samples),
         Column::new("impacts".into(), impacts),
     ]);
+    // RQMC runs have gains; an MC run's table is as it was.
+    let rqmc = summary.sampling.is_some();
     for name in &stat_names {
-        for field in STAT_FIELDS {
+        for field in STAT_FIELDS.into_iter().filter(|f| rqmc || *f != "gain") {
             let col = format!("{name}_{field}");
             if field == "n" {
                 let v: Vec<Option<u64>> = rows
@@ -164,6 +172,7 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                     r.0.get(name.as_str()).and_then(|s| match field {
                         "mean" => Some(s.mean),
                         "ci95" => Some(s.ci95),
+                        "gain" => s.gain.filter(|g| g.is_finite()),
                         "sd" => Some(s.sd),
                         "min" => Some(s.min),
                         "max" => Some(s.max),
@@ -187,6 +196,13 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
             .map(|r| r.2.get(name).copied().filter(|x| x.is_finite()))
             .collect();
         cols.push(Column::new(format!("fraction_{name}_ci95").into(), v));
+        if rqmc {
+            let v: Vec<Option<f64>> = rows
+                .iter()
+                .map(|r| r.3.get(name).copied().filter(|x| x.is_finite()))
+                .collect();
+            cols.push(Column::new(format!("fraction_{name}_gain").into(), v));
+        }
     }
     DataFrame::new(height, cols)
 }

@@ -363,6 +363,15 @@ fn samples_map_to_whole_replicates() {
     for (r, i) in rep.iter().zip(&sample) {
         assert_eq!(*r as u64, i / 256);
     }
+    // summary.parquet: the gains beside the intervals, as in the JSON.
+    let json = support::json_file(&dir.join("summary.json"));
+    let table = support::read_parquet(&dir.join("summary.parquet"));
+    let gain = support::column::<arrow_array::types::Float64Type>(&table, "energy_ratio_gain");
+    let ci = support::column::<arrow_array::types::Float64Type>(&table, "energy_ratio_ci95");
+    let all = &json["laws"]["newton"]["groups"]["all"]["stats"]["energy_ratio"];
+    assert_eq!(gain[0], all["gain"].as_f64().unwrap());
+    assert_eq!(ci[0], all["ci95"].as_f64().unwrap());
+    support::column::<arrow_array::types::Float64Type>(&table, "fraction_impacting_gain");
 }
 
 /// Each bad sampling input is one error naming the field and the value.
@@ -422,4 +431,52 @@ fn bad_sampling_input_names_the_field() {
         e.contains(":8: replicates: invalid type: floating point `2.5`"),
         "{e}"
     );
+}
+
+/// The default S3 run with RQMC (10⁷ requested: 16 × 2²⁰) gives a mean
+/// energy ratio interval at least 5× narrower than MC's at the same sample
+/// count, and the rough floor's RQMC run (friction lanes) agrees with MC.
+#[test]
+fn rqmc_narrows_the_default_s3_interval_fivefold() {
+    let r = summary(
+        &scene(
+            "corner3",
+            Overrides {
+                sampling: Some("rqmc".into()),
+                ..Default::default()
+            },
+        ),
+        0,
+    );
+    let m = summary(
+        &scene(
+            "corner3",
+            Overrides {
+                samples: Some(r.samples),
+                ..Default::default()
+            },
+        ),
+        0,
+    );
+    assert_eq!(r.samples, 16 << 20);
+    let (a, b) = (stat(&r, "energy_ratio"), stat(&m, "energy_ratio"));
+    assert!(
+        b.ci95 > 5.0 * a.ci95,
+        "rqmc {} against mc {}",
+        a.ci95,
+        b.ci95
+    );
+
+    let rough = |o: Overrides| summary(&scene("floor_friction", o), 0);
+    let r = rough(rqmc(16 << 14, 16, 3, "f32"));
+    let m = rough(Overrides {
+        samples: Some(4_000_000),
+        seed: Some(4),
+        laws: Some(vec!["newton".into()]),
+        ..Default::default()
+    });
+    let (a, b) = (stat(&r, "energy_ratio"), stat(&m, "energy_ratio"));
+    let sigma = ((a.ci95 / 2.0).powi(2) + (b.ci95 / 1.96).powi(2)).sqrt();
+    assert!((a.mean - b.mean).abs() < 4.0 * sigma, "{a:?} {b:?}");
+    assert!(a.gain.is_some_and(|g| g > 1.0), "{a:?}");
 }

@@ -77,3 +77,37 @@ fn three_planes_under_every_law_in_both_precisions() {
         same_bits::<f64, 3, true, true>("corner3", law);
     }
 }
+
+/// RQMC draws: the multiversioned block sampler gives the baseline
+/// build's bits, in both precisions (the same block starts, across the
+/// points' lookup runs and replicates).
+#[test]
+fn rqmc_draws_in_both_precisions() {
+    fn same_draws<T: Real>() {
+        let s = impactmc::config::load_scene(
+            &support::repo("configs/corner3.toml"),
+            &impactmc::config::Overrides {
+                sampling: Some("rqmc".into()),
+                precision: Some(T::NAME.parse().unwrap()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let sampler = Sampler::new(&s);
+        for first in [0u64, 192 * 1000 + 7, (5 << 20) + 200, 1 << 40] {
+            let mut fast = Inputs::<T>::new();
+            sample_block(&sampler, first, &mut fast);
+            let mut base = Inputs::<T>::new();
+            sampler.fill(first, &mut base);
+            for (what, a, b) in [
+                ("orientations", bits(&fast.a), bits(&base.a)),
+                ("velocities", bits(&fast.v), bits(&base.v)),
+                ("spins", bits(&fast.w), bits(&base.w)),
+            ] {
+                assert_eq!(a, b, "{} rqmc {what} at {first}", T::NAME);
+            }
+        }
+    }
+    same_draws::<f32>();
+    same_draws::<f64>();
+}
