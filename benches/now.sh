@@ -62,11 +62,7 @@ for s in $(seq "$series"); do
     done
 done
 
-field() { grep -m1 "^$1" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'; }
-cpu="$(field 'model name'), family $(field 'cpu family') model $(field 'model')"
-simd=$(grep -m1 '^flags' /proc/cpuinfo | tr ' ' '\n' | grep -E '^(avx2|fma|avx512f|avx512vl|avx512bw|avx512dq)$' | sort | paste -sd ' ' -)
-version=$("$bin" --version | cut -d' ' -f2)
-commit=$(git rev-parse --short HEAD 2> /dev/null || echo unknown)
+describe_machine
 printf '%s\n' "${rows[@]}" > "$out/rows"
 python3 - "$out/rows" "$out/rates" "$out/gains" "$series" "$threads" "$cpu" "${simd:-none}" "$version" "$commit" <<'EOF'
 import datetime, statistics, sys
