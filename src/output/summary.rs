@@ -696,8 +696,11 @@ impl Summary {
                     x.map(|x| format!("{x:>10.4}"))
                         .unwrap_or_else(|| format!("{:>10}", "-"))
                 };
+                // A constant's gain is rounding over rounding: shown in
+                // e-notation so it keeps to its column.
                 let gain = match st.gain {
-                    Some(g) if rqmc => format!(" {g:>8.1}"),
+                    Some(g) if rqmc && g.is_finite() && g < 1e5 => format!(" {g:>8.1}"),
+                    Some(g) if rqmc && g.is_finite() => format!(" {g:>8.1e}"),
                     _ if rqmc => format!(" {:>8}", "-"),
                     _ => String::new(),
                 };
