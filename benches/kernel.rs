@@ -292,7 +292,7 @@ fn flight(c: &mut Criterion) {
         panic!("drop_corner is a drop scene")
     };
     let flights: Vec<_> = (0..BLOCK as u64)
-        .map(|i| impactmc::drop::start_of(start, &sampler, i))
+        .map(|i| impactmc::engine::drop::start_of(start, &sampler, i))
         .collect();
     let planes: Vec<_> = s.planes().iter().map(|p| p.plane).collect();
     let fx = s.effects();

@@ -16,7 +16,6 @@
 
 pub mod accuracy;
 pub mod config;
-pub mod drop;
 pub mod engine;
 pub mod kernel;
 pub mod lanes;

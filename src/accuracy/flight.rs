@@ -31,7 +31,7 @@ pub fn flight_ladder(
     steps.begin(
         1 + knobs.flight_steps.len() + knobs.toi_tolerances.len() + knobs.sample_counts.len(),
     )?;
-    use crate::drop::{first_impact, start_of};
+    use crate::engine::drop::{first_impact, start_of};
     let law = scene.laws()[0];
     let sampler = crate::sampler::Sampler::new(scene);
     let starts: Vec<_> = (0..knobs.samples as u64)

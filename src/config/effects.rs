@@ -3,8 +3,8 @@
 
 use glam::DVec3;
 
-use crate::config::scene::NamedPlane;
-use crate::config::validate::{bad, Bad};
+use crate::config::bad::{bad, Bad};
+use crate::config::plane::NamedPlane;
 use crate::config::{RawScene, RawVector};
 use crate::physics::Ellipsoid;
 

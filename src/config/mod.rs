@@ -2,8 +2,10 @@
 //! [`Scene`] in one place, with the effects it calls for, its sweep grid,
 //! and single-impact cases for `impactmc solve`.
 
+mod bad;
 pub mod case;
 mod effects;
+mod plane;
 pub mod raw;
 mod scene;
 pub mod sweep;
@@ -11,9 +13,11 @@ mod validate;
 
 pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAMES};
 pub use raw::*;
+pub use plane::NamedPlane;
 pub use scene::{
-    load_scene, Contact, DropBox, NamedPlane, OrientationDist, Overrides, Placement, Precision,
+    load_scene, Contact, DropBox, OrientationDist, Overrides, Placement, Precision,
     Sampling, Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE,
     MAX_LOG2_POINTS, MAX_SAMPLES,
 };
-pub use validate::{parse_law, MAX_DROP_PLANES};
+pub use crate::physics::MAX_DROP_PLANES;
+pub use validate::parse_law;

@@ -8,6 +8,7 @@ use glam::{DMat3, DVec3};
 
 use crate::config::effects::Effects;
 use crate::config::{line_of, RawScene};
+use crate::config::plane::NamedPlane;
 use crate::physics::{Ellipsoid, Law, Plane};
 
 /// Floating-point type of the kernel.
@@ -105,13 +106,6 @@ pub enum VectorDist {
     Normal { mean: DVec3, sd: DVec3 },
     Uniform { low: DVec3, high: DVec3 },
     Fixed(DVec3),
-}
-
-/// A plane with its scene name.
-#[derive(Debug, Clone, PartialEq)]
-pub struct NamedPlane {
-    pub name: String,
-    pub plane: Plane,
 }
 
 /// A scene error: where, what, and the value.

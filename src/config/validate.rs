@@ -4,26 +4,15 @@
 
 use glam::DVec3;
 
+use crate::config::bad::{bad, Bad};
 use crate::config::effects::Effects;
+use crate::config::plane::NamedPlane;
 use crate::config::scene::{
-    Contact, DropBox, NamedPlane, OrientationDist, Placement, Precision, Sampling, Scene,
+    Contact, DropBox, OrientationDist, Placement, Precision, Sampling, Scene,
     VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS, MAX_SAMPLES,
 };
 use crate::config::{RawOrientation, RawScene, RawVector};
 use crate::physics::{matrix_from_bryan, Bryan, Ellipsoid, Law, Plane, SymMatrix};
-
-/// A field error before the file and line are known.
-pub(super) struct Bad {
-    pub(super) path: Vec<String>,
-    pub(super) message: String,
-}
-
-pub(super) fn bad(path: &[&str], message: impl Into<String>) -> Bad {
-    Bad {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message: message.into(),
-    }
-}
 
 fn finite3(path: &[&str], v: [f64; 3]) -> Result<DVec3, Bad> {
     if v.iter().all(|x| x.is_finite()) {
@@ -135,8 +124,7 @@ fn planes(raw: &RawScene) -> Result<Vec<NamedPlane>, Bad> {
     Ok(planes)
 }
 
-/// Most planes of a drop scene (2^planes sets of planes hit per bounce).
-pub const MAX_DROP_PLANES: usize = 6;
+use crate::physics::MAX_DROP_PLANES;
 
 /// `placement.drop`: a box of start positions from which the body cannot
 /// touch any plane, whatever its orientation.

@@ -6,13 +6,15 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 use crate::config::Scene;
+use glam::{DMat3, DQuat};
+
 use crate::kernel::{
-    check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute, Consts,
-    Frame, Geometry, LawOut, Sweep,
+    active_mask, check_extra_planes, frame, friction_impulses, geometry, impulses, post,
+    recompute, sticking_mask, Consts, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, UNCONVERGED,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
-use crate::output::samples::{push_rows, SampleRows};
+use crate::output::samples::SampleRows;
 use crate::physics::Law;
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
@@ -263,6 +265,83 @@ pub(crate) fn fallback<T: Real, const N: usize>(
         recompute(scene, *law, &work.inputs, out, count);
         if let Some(fr) = acc.as_deref_mut().and_then(|a| a.laws[l].friction.as_mut()) {
             record_friction(out, count, fr);
+        }
+    }
+}
+
+/// Appends a block's rows (after recomputation) in the order of
+/// [`RowLayout`](crate::output::samples::RowLayout), column by column (`friction`: the scene's friction
+/// columns are there).
+pub(crate) fn push_rows<T: Real, const N: usize>(
+    x: &Inputs<T>,
+    geo: &Geometry<T, N>,
+    outs: &[Box<LawOut<T, N>>],
+    (first, count): (u64, usize),
+    friction: bool,
+    rows: &mut SampleRows,
+) {
+    rows.index.extend(first..first + count as u64);
+    // The orientation as a unit quaternion with w ≥ 0, from the matrix the
+    // kernel used.
+    let mut q = [[0.0f64; 4]; BLOCK];
+    let quaternion = (0..4).any(|k| rows.is_filled(k));
+    for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
+        let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
+        let r = DQuat::from_mat3(&a);
+        let r = if r.w < 0.0 { -r } else { r };
+        *q = [r.w, r.x, r.y, r.z];
+    }
+    let mut cols = rows.columns();
+    fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
+        c[..count].iter().map(|v| v.to_f64())
+    }
+    for c in 0..4 {
+        cols.put(q[..count].iter().map(|q| q[c]));
+    }
+    for c in x.v.iter().chain(&x.w) {
+        cols.put(lane(c, count));
+    }
+    cols.put(lane(&geo.t_before, count));
+    for c in &geo.vn {
+        cols.put(lane(c, count));
+    }
+    for out in outs {
+        cols.put(lane(&out.t_after, count));
+        cols.put(
+            lane(&out.t_after, count)
+                .zip(lane(&geo.t_before, count))
+                .map(|(t1, t0)| t1 / t0),
+        );
+        for c in out.v_after.iter().chain(&out.w_after) {
+            cols.put(lane(c, count));
+        }
+        for c in out.lambda.iter().chain(&out.vn_after) {
+            cols.put(lane(c, count));
+        }
+        if friction {
+            for c in out.tangential.iter().chain(&out.sliding) {
+                cols.put(lane(c, count));
+            }
+        }
+    }
+    let mut ints = rows.ints.iter_mut();
+    for out in outs {
+        let status = &out.status[..count];
+        let active = ints.next().expect("column count");
+        active.extend(status.iter().map(|&st| active_mask::<N>(st) as u16));
+        // Bits 0–14 (a u16 holds them); the friction bits above have their
+        // own columns.
+        let flags = ints.next().expect("column count");
+        flags.extend(status.iter().map(|&st| st as u16));
+        if friction {
+            let sticking = ints.next().expect("column count");
+            sticking.extend(status.iter().map(|&st| sticking_mask::<N>(st) as u16));
+            let friction_flags = ints.next().expect("column count");
+            friction_flags.extend(
+                status.iter().map(|&st| {
+                    (st & AMBIGUOUS != 0) as u16 | (((st & UNCONVERGED != 0) as u16) << 1)
+                }),
+            );
         }
     }
 }

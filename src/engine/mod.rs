@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 mod batch;
+pub mod drop;
 mod evaluate;
 pub(crate) mod pool;
 
@@ -27,7 +28,6 @@ use crate::engine::pool::Pool;
 use crate::kernel::{Consts, KernelVariant};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::output::manifest::process_cpu_seconds;
 use crate::output::samples::SampleRows;
 use crate::sampler::{Sampler, ALL_ROWS};
 use crate::stats::accumulators::{RunAcc, Shape};
@@ -276,7 +276,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
 }
 
 /// A drop scene's batches: per sample, the f64 reference flight and
-/// impacts of [`crate::drop`], through the same tree as contact batches.
+/// impacts of [`crate::engine::drop`], through the same tree as contact batches.
 #[allow(clippy::too_many_arguments)]
 fn run_drops(
     scene: &Scene,
@@ -287,7 +287,7 @@ fn run_drops(
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
-    let ctx = crate::drop::DropCtx::new(scene, start, keep);
+    let ctx = crate::engine::drop::DropCtx::new(scene, start, keep);
     let shape = Shape::of(scene);
     let batch = scene.batch_size();
     let total = scene.samples();
@@ -494,6 +494,17 @@ pub fn run_with_samples(
         cpu_seconds,
         threads,
     })
+}
+
+/// CPU time (user + system) of this process so far, from
+/// `/proc/self/stat`; `None` where that is not available.
+pub fn process_cpu_seconds() -> Option<f64> {
+    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
 }
 
 #[cfg(test)]

@@ -30,6 +30,7 @@ mod friction;
 mod geometry;
 mod impulses;
 mod lcp;
+mod strike;
 mod variant;
 
 use crate::config::Scene;
@@ -39,6 +40,7 @@ use crate::lanes::Real;
 pub use fallback::{check_extra_planes, recompute, write_outcome, write_record, ContactRecord};
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
+pub use strike::Strike;
 pub use impulses::{impulses, post};
 pub use variant::KernelVariant;
 

@@ -240,29 +240,6 @@ impl ManifestHead {
     }
 }
 
-/// CPU time (user + system) of this process so far, from
-/// `/proc/self/stat`; `None` where that is not available.
-pub fn process_cpu_seconds() -> Option<f64> {
-    // /proc/self/stat fields 14 and 15: user and system time in clock ticks.
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let after = stat.rsplit_once(')')?.1;
-    let f: Vec<&str> = after.split_whitespace().collect();
-    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn utc_formatting() {
-        let t = UNIX_EPOCH + std::time::Duration::from_secs(1_795_000_000);
-        assert_eq!(utc_string(t), "2026-11-18T11:06:40Z");
-        assert_eq!(utc_string(UNIX_EPOCH), "1970-01-01T00:00:00Z");
-    }
-}
-
 /// A finished run folder read back: its manifest and summary (as JSON) and
 /// the text `impactmc inspect` prints.
 #[derive(Debug, Clone)]
@@ -314,4 +291,16 @@ pub fn inspect(dir: &std::path::Path) -> Result<Inspection, String> {
         summary,
         text,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn utc_formatting() {
+        let t = UNIX_EPOCH + std::time::Duration::from_secs(1_795_000_000);
+        assert_eq!(utc_string(t), "2026-11-18T11:06:40Z");
+        assert_eq!(utc_string(UNIX_EPOCH), "1970-01-01T00:00:00Z");
+    }
 }

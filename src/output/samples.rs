@@ -1,20 +1,9 @@
 //! The per-sample rows: which columns a scene has, their types, and the
 //! rows of a batch, column-major at their native width (an f32 run keeps
-//! f32 values, integers their narrowest exact type), as the engine and the
-//! drop batches fill them. [`super::parquet`] writes them.
-
-use glam::{DMat3, DQuat};
+//! f32 values, integers their narrowest exact type). The batch bodies fill
+//! them (`engine`'s contact blocks and drop walks). [`super::parquet`] writes them.
 
 use crate::config::{Placement, Precision, Sampling, Scene};
-use crate::drop::Strike;
-use crate::kernel::{
-    active_mask, sticking_mask, Geometry, LawOut, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
-    UNCONVERGED, UNSOLVED,
-};
-use crate::lanes::dispatch::BLOCK;
-use crate::lanes::Real;
-use crate::physics::Motion;
-use crate::sampler::Inputs;
 
 /// The width of an integer column: every value the column can take fits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -260,16 +249,18 @@ impl Floats {
     }
 }
 
-/// Fills float columns one after the other (those not filled are skipped,
-/// their values never computed).
-struct Columns<'a> {
+/// Fills float columns one after the other, in the order of the
+/// [`RowLayout`] (those not filled are skipped, their values never
+/// computed): what a batch body writes its rows with.
+pub struct Columns<'a> {
     floats: &'a mut Floats,
     filled: &'a [bool],
     next: usize,
 }
 
 impl Columns<'_> {
-    fn put(&mut self, values: impl Iterator<Item = f64>) {
+    /// Appends `values` to the next float column.
+    pub fn put(&mut self, values: impl Iterator<Item = f64>) {
         if self.filled[self.next] {
             self.floats.extend(self.next, values);
         }
@@ -337,6 +328,20 @@ impl SampleRows {
 
     pub fn len(&self) -> usize {
         self.index.len()
+    }
+
+    /// The float columns, to be filled in order with [`Columns::put`].
+    pub fn columns(&mut self) -> Columns<'_> {
+        Columns {
+            floats: &mut self.floats,
+            filled: &self.filled,
+            next: 0,
+        }
+    }
+
+    /// Whether float column `k` is filled.
+    pub fn is_filled(&self, k: usize) -> bool {
+        self.filled[k]
     }
 
     pub fn is_empty(&self) -> bool {
@@ -419,87 +424,6 @@ fn contact_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     (f, ints)
 }
 
-/// Appends a block's rows (after recomputation) in the order of
-/// [`RowLayout`], column by column (`friction`: the scene's friction
-/// columns are there).
-pub fn push_rows<T: Real, const N: usize>(
-    x: &Inputs<T>,
-    geo: &Geometry<T, N>,
-    outs: &[Box<LawOut<T, N>>],
-    (first, count): (u64, usize),
-    friction: bool,
-    rows: &mut SampleRows,
-) {
-    rows.index.extend(first..first + count as u64);
-    // The orientation as a unit quaternion with w ≥ 0, from the matrix the
-    // kernel used.
-    let mut q = [[0.0f64; 4]; BLOCK];
-    let quaternion = rows.filled[..4].iter().any(|&f| f);
-    for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
-        let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
-        let r = DQuat::from_mat3(&a);
-        let r = if r.w < 0.0 { -r } else { r };
-        *q = [r.w, r.x, r.y, r.z];
-    }
-    let mut cols = Columns {
-        floats: &mut rows.floats,
-        filled: &rows.filled,
-        next: 0,
-    };
-    fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
-        c[..count].iter().map(|v| v.to_f64())
-    }
-    for c in 0..4 {
-        cols.put(q[..count].iter().map(|q| q[c]));
-    }
-    for c in x.v.iter().chain(&x.w) {
-        cols.put(lane(c, count));
-    }
-    cols.put(lane(&geo.t_before, count));
-    for c in &geo.vn {
-        cols.put(lane(c, count));
-    }
-    for out in outs {
-        cols.put(lane(&out.t_after, count));
-        cols.put(
-            lane(&out.t_after, count)
-                .zip(lane(&geo.t_before, count))
-                .map(|(t1, t0)| t1 / t0),
-        );
-        for c in out.v_after.iter().chain(&out.w_after) {
-            cols.put(lane(c, count));
-        }
-        for c in out.lambda.iter().chain(&out.vn_after) {
-            cols.put(lane(c, count));
-        }
-        if friction {
-            for c in out.tangential.iter().chain(&out.sliding) {
-                cols.put(lane(c, count));
-            }
-        }
-    }
-    let mut ints = rows.ints.iter_mut();
-    for out in outs {
-        let status = &out.status[..count];
-        let active = ints.next().expect("column count");
-        active.extend(status.iter().map(|&st| active_mask::<N>(st) as u16));
-        // Bits 0–14 (a u16 holds them); the friction bits above have their
-        // own columns.
-        let flags = ints.next().expect("column count");
-        flags.extend(status.iter().map(|&st| st as u16));
-        if friction {
-            let sticking = ints.next().expect("column count");
-            sticking.extend(status.iter().map(|&st| sticking_mask::<N>(st) as u16));
-            let friction_flags = ints.next().expect("column count");
-            friction_flags.extend(
-                status.iter().map(|&st| {
-                    (st & AMBIGUOUS != 0) as u16 | (((st & UNCONVERGED != 0) as u16) << 1)
-                }),
-            );
-        }
-    }
-}
-
 /// A drop scene's per-impact columns after `sample` (u64) and `law` (str):
 /// the f64 columns, then the integer columns. At the moment of impact: `time`
 /// since release and `interval` since the previous impact (s), the centre
@@ -553,85 +477,3 @@ pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     (f, ints)
 }
 
-/// One impact of a drop sample, as [`SampleRows::push_drop`] writes it.
-pub struct DropRow<'a> {
-    pub sample: u64,
-    pub law: u32,
-    pub bounce: u32,
-    pub planes: u32,
-    pub time: f64,
-    pub interval: f64,
-    /// At the moment of impact, before it.
-    pub motion: &'a Motion,
-    pub strike: &'a Strike,
-}
-
-impl SampleRows {
-    /// Appends one impact in the order of [`drop_columns`].
-    pub fn push_drop(&mut self, r: &DropRow) {
-        self.index.push(r.sample);
-        self.law.push(r.law);
-        let m = r.motion;
-        let o = r.strike;
-        let q = DQuat::from_mat3(&m.rotation);
-        let q = if q.w < 0.0 { -q } else { q };
-        let mut cols = Columns {
-            floats: &mut self.floats,
-            filled: &self.filled,
-            next: 0,
-        };
-        let mut put = |v: f64| cols.put(std::iter::once(v));
-        for v in [r.time, r.interval] {
-            put(v);
-        }
-        for v in m.centre.to_array() {
-            put(v);
-        }
-        for v in [q.w, q.x, q.y, q.z] {
-            put(v);
-        }
-        for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
-            put(v);
-        }
-        for v in [
-            o.energy_before,
-            o.energy_after,
-            o.energy_after / o.energy_before,
-        ] {
-            put(v);
-        }
-        for v in o
-            .after
-            .velocity
-            .to_array()
-            .into_iter()
-            .chain(o.after.omega.to_array())
-        {
-            put(v);
-        }
-        for i in 0..o.planes {
-            let c = &o.contacts[i];
-            for v in [
-                o.distance[i],
-                o.normal_velocity_before[i],
-                c.normal_velocity_after,
-                c.impulse,
-            ] {
-                put(v);
-            }
-        }
-        let flags = [
-            (o.flags.energy_gain, ENERGY_GAIN),
-            (o.flags.degenerate, DEGENERATE),
-            (o.flags.jammed, JAMMED),
-            (o.flags.unsolved, UNSOLVED),
-        ]
-        .iter()
-        .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
-        // Bounces are at most 10,000, planes at most six, flags end at bit 12.
-        let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
-        for (col, v) in self.ints.iter_mut().zip(ints) {
-            col.push(v);
-        }
-    }
-}

@@ -3,6 +3,10 @@
 
 use glam::DVec3;
 
+/// Most planes of a drop scene (2^planes sets of planes hit per bounce),
+/// and so most contacts an impact of the reference solves on the stack.
+pub const MAX_DROP_PLANES: usize = 6;
+
 /// Why a plane could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PlaneError {

@@ -11,7 +11,7 @@ use crate::support::shipped_scene;
 
 use glam::{DMat3, DQuat, DVec3};
 use impactmc::config::{Keep, Placement, Scene};
-use impactmc::drop::{start_of, DropCtx};
+use impactmc::engine::drop::{start_of, DropCtx};
 use impactmc::output::samples::{Floats, SampleRows};
 use impactmc::physics::{solve_impact, time_of_impact, Law, Motion, Pose, Rotation, State};
 use impactmc::sampler::Sampler;

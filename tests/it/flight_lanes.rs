@@ -96,7 +96,7 @@ fn lane_times_of_impact_match_the_reference() {
     let (mut worst64, mut worst32, mut off32, mut compared) = (0f64, 0f64, 0usize, 0usize);
     for b in 0..(10_000 / BLOCK as u64 + 1) {
         let motions: Vec<_> = (0..BLOCK as u64)
-            .map(|k| impactmc::drop::start_of(start, &sampler, b * BLOCK as u64 + k))
+            .map(|k| impactmc::engine::drop::start_of(start, &sampler, b * BLOCK as u64 + k))
             .collect();
         let mut f64s = FlightLanes::<f64, 3>::new(s.body(), &planes, gravity, tol, horizon);
         let mut f32s = FlightLanes::<f32, 3>::new(s.body(), &planes, gravity, tol, horizon);

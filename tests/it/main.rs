@@ -25,6 +25,7 @@ mod golden;
 mod golden_friction;
 mod kernel_vs_reference;
 mod kubernetes;
+mod layering;
 mod physics_invariants;
 mod plots;
 mod python;

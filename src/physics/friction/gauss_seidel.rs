@@ -119,7 +119,7 @@ fn sweep(ct: &Contacts, p: &mut [DVec3], last: &mut [Single], plastic: bool) -> 
 
 /// Contacts a Gauss–Seidel solve keeps on the stack (every scene's; a
 /// solved case with more planes uses the heap and is not accelerated).
-pub(crate) const MAX: usize = crate::config::MAX_DROP_PLANES;
+pub(crate) const MAX: usize = crate::physics::MAX_DROP_PLANES;
 
 /// Gauss–Seidel sweeps from P = 0. With `sweeps = None` it runs to the
 /// limit (no impulse moved by more than 1e-13 of the impulse scale in a

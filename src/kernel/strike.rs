@@ -4,8 +4,8 @@
 //! a [`Strike`], so the bounce statistics, the first impact's lane and the
 //! per-impact rows are written alike whichever solved it.
 
-use crate::config::MAX_DROP_PLANES;
-use crate::kernel::{write_record, ContactRecord, LawOut};
+use crate::physics::MAX_DROP_PLANES;
+use super::{write_record, ContactRecord, LawOut};
 use crate::lanes::Real;
 use crate::physics::{Ellipsoid, Flags, ImpactOutcome, State};
 

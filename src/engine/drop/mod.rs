@@ -18,7 +18,7 @@
 use glam::DVec3;
 
 use crate::config::{DropBox, Scene};
-use crate::kernel::LawOut;
+use crate::kernel::{LawOut, Strike};
 use crate::lanes::dispatch::BLOCK;
 use crate::output::samples::SampleRows;
 use crate::physics::{
@@ -30,10 +30,8 @@ use crate::stats::accumulators::RunAcc;
 use crate::stats::block::{block_stats, record_friction, Before, Derived, StatsPlan};
 use crate::stats::drops::Ending;
 
-mod strike;
 mod walk;
 
-pub use strike::Strike;
 use walk::{How, Log, Walk};
 
 mod wave;

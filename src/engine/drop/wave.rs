@@ -42,7 +42,7 @@ use crate::physics::{
 use crate::sampler::Inputs;
 use crate::stats::drops::Ending;
 
-use super::strike::Strike;
+use crate::kernel::Strike;
 use super::walk::{How, Log, Walk};
 use super::{start_of, DropCtx, Flight};
 
