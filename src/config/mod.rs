@@ -11,13 +11,13 @@ mod scene;
 pub mod sweep;
 mod validate;
 
-pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAMES};
-pub use raw::*;
-pub use plane::NamedPlane;
-pub use scene::{
-    load_scene, Contact, DropBox, OrientationDist, Overrides, Placement, Precision,
-    Sampling, Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE,
-    MAX_LOG2_POINTS, MAX_SAMPLES,
-};
 pub use crate::physics::MAX_DROP_PLANES;
+pub use effects::{Effects, Keep, Quantiles, Statistic, Statistics, STATISTIC_NAMES};
+pub use plane::NamedPlane;
+pub use raw::*;
+pub use scene::{
+    load_scene, Contact, DropBox, OrientationDist, Overrides, Placement, Precision, Sampling,
+    Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS,
+    MAX_SAMPLES,
+};
 pub use validate::parse_law;

@@ -7,8 +7,8 @@ use std::path::Path;
 use glam::{DMat3, DVec3};
 
 use crate::config::effects::Effects;
-use crate::config::{line_of, RawScene};
 use crate::config::plane::NamedPlane;
+use crate::config::{line_of, RawScene};
 use crate::physics::{Ellipsoid, Law, Plane};
 
 /// Floating-point type of the kernel.

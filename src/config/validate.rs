@@ -8,8 +8,8 @@ use crate::config::bad::{bad, Bad};
 use crate::config::effects::Effects;
 use crate::config::plane::NamedPlane;
 use crate::config::scene::{
-    Contact, DropBox, OrientationDist, Placement, Precision, Sampling, Scene,
-    VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS, MAX_SAMPLES,
+    Contact, DropBox, OrientationDist, Placement, Precision, Sampling, Scene, VectorDist,
+    DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS, MAX_SAMPLES,
 };
 use crate::config::{RawOrientation, RawScene, RawVector};
 use crate::physics::{matrix_from_bryan, Bryan, Ellipsoid, Law, Plane, SymMatrix};

@@ -9,8 +9,8 @@ use crate::config::Scene;
 use glam::{DMat3, DQuat};
 
 use crate::kernel::{
-    active_mask, check_extra_planes, frame, friction_impulses, geometry, impulses, post,
-    recompute, sticking_mask, Consts, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, UNCONVERGED,
+    active_mask, check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute,
+    sticking_mask, Consts, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, UNCONVERGED,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;

@@ -510,7 +510,7 @@ pub fn process_cpu_seconds() -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::accumulators::Slot;
+    use crate::stats::Slot;
 
     /// Every accumulator field by path, as comparable text.
     fn slots(acc: &mut RunAcc) -> Vec<(String, String)> {

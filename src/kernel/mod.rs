@@ -40,8 +40,8 @@ use crate::lanes::Real;
 pub use fallback::{check_extra_planes, recompute, write_outcome, write_record, ContactRecord};
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
-pub use strike::Strike;
 pub use impulses::{impulses, post};
+pub use strike::Strike;
 pub use variant::KernelVariant;
 
 /// Lane status bits.

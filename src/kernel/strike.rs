@@ -4,9 +4,9 @@
 //! a [`Strike`], so the bounce statistics, the first impact's lane and the
 //! per-impact rows are written alike whichever solved it.
 
-use crate::physics::MAX_DROP_PLANES;
 use super::{write_record, ContactRecord, LawOut};
 use crate::lanes::Real;
+use crate::physics::MAX_DROP_PLANES;
 use crate::physics::{Ellipsoid, Flags, ImpactOutcome, State};
 
 /// One impact, every plane of the scene in scene order.

@@ -110,6 +110,12 @@ fn horner<T: Real, const K: usize>(c: [T; K], x: T) -> T {
     p
 }
 
+/// `(sin x, cos x)` of an angle in radians, by [`Real::sin_cos_2pi`].
+#[inline(always)]
+pub fn sin_cos<T: Real>(x: T) -> (T, T) {
+    (x * T::from_f64(std::f64::consts::FRAC_1_PI * 0.5)).sin_cos_2pi()
+}
+
 /// `if c { a } else { b }` as a value (a blend when vectorised).
 #[inline(always)]
 pub fn select<T: Real>(c: bool, a: T, b: T) -> T {

@@ -476,4 +476,3 @@ pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
     ];
     (f, ints)
 }
-

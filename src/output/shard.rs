@@ -29,10 +29,11 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::stats::accumulators::{RunAcc, Shape, Slot};
+use crate::stats::accumulators::{RunAcc, Shape};
 use crate::stats::tree::{reduce_tree, Node, Shard};
 use crate::stats::Moments;
 use crate::stats::RunResult;
+use crate::stats::Slot;
 
 /// Version of the state files' layout.
 pub const STATE_VERSION: u32 = 3;

@@ -1,6 +1,6 @@
 //! The rigid ellipsoid: semi-axes, mass and principal inertia (paper eq. 1).
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// Why an ellipsoid could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -73,6 +73,23 @@ impl Ellipsoid {
     pub fn is_sphere(&self) -> bool {
         self.semi_axes.x == self.semi_axes.y && self.semi_axes.y == self.semi_axes.z
     }
+}
+
+/// Position and orientation of the body: `X = centre + rotation · x`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// Body → world rotation `A`.
+    pub rotation: DMat3,
+    /// Centre `X0` in the world frame (m).
+    pub centre: DVec3,
+}
+
+/// Velocities: centre velocity in the world frame (m/s), angular velocity in
+/// the body frame (rad/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    pub velocity: DVec3,
+    pub omega: DVec3,
 }
 
 #[cfg(test)]

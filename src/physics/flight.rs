@@ -16,9 +16,9 @@
 //! the flight's start, and the flight starts where the body's bounding
 //! sphere first comes within the tolerance of a plane.
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DMat3, DVec3};
 
-use super::torque_free::TorqueFree;
+use super::torque_free::{rk4_rotation, TorqueFree};
 use super::{ContactGeometry, Ellipsoid, Plane};
 
 /// Position, orientation and velocities of a body in flight.
@@ -103,58 +103,6 @@ pub fn precess(body: &Ellipsoid, rotation: DMat3, omega: DVec3, t: f64) -> (DMat
         omega.z,
     );
     (r, w)
-}
-
-fn euler_rhs(j: DVec3, q: DQuat, w: DVec3) -> (DQuat, DVec3) {
-    let qd = q * DQuat::from_xyzw(w.x, w.y, w.z, 0.0);
-    (
-        DQuat::from_xyzw(0.5 * qd.x, 0.5 * qd.y, 0.5 * qd.z, 0.5 * qd.w),
-        -w.cross(j * w) / j,
-    )
-}
-
-fn qadd(q: DQuat, d: DQuat, h: f64) -> DQuat {
-    DQuat::from_xyzw(q.x + d.x * h, q.y + d.y * h, q.z + d.z * h, q.w + d.w * h)
-}
-
-/// Torque-free rotation over `t` by RK4 with steps of at most `max_step`.
-pub fn rk4_rotation(
-    body: &Ellipsoid,
-    rotation: DMat3,
-    omega: DVec3,
-    t: f64,
-    max_step: f64,
-) -> (DMat3, DVec3) {
-    rk4_inertia(body.inertia(), rotation, omega, t, max_step)
-}
-
-/// [`rk4_rotation`] for principal moments `j`.
-pub(crate) fn rk4_inertia(
-    j: DVec3,
-    rotation: DMat3,
-    omega: DVec3,
-    t: f64,
-    max_step: f64,
-) -> (DMat3, DVec3) {
-    let steps = ((t.abs() / max_step).ceil() as u64).max(1);
-    let h = t / steps as f64;
-    let mut q = DQuat::from_mat3(&rotation);
-    let mut w = omega;
-    for _ in 0..steps {
-        let (q1, w1) = euler_rhs(j, q, w);
-        let (q2, w2) = euler_rhs(j, qadd(q, q1, 0.5 * h), w + w1 * (0.5 * h));
-        let (q3, w3) = euler_rhs(j, qadd(q, q2, 0.5 * h), w + w2 * (0.5 * h));
-        let (q4, w4) = euler_rhs(j, qadd(q, q3, h), w + w3 * h);
-        let dq = DQuat::from_xyzw(
-            q1.x + 2.0 * q2.x + 2.0 * q3.x + q4.x,
-            q1.y + 2.0 * q2.y + 2.0 * q3.y + q4.y,
-            q1.z + 2.0 * q2.z + 2.0 * q3.z + q4.z,
-            q1.w + 2.0 * q2.w + 2.0 * q3.w + q4.w,
-        );
-        q = qadd(q, dq, h / 6.0).normalize();
-        w += (w1 + 2.0 * w2 + 2.0 * w3 + w4) * (h / 6.0);
-    }
-    (DMat3::from_quat(q), w)
 }
 
 /// The motion `t` seconds later: a parabola under `gravity` (world vector,

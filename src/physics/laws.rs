@@ -1,13 +1,13 @@
 //! The four impact laws of physics.md ("Impact laws") over the touching
 //! contacts, and the post-impact state they produce.
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use super::friction;
 use super::lcp::{solve_lcp, MAX_LCP_CONTACTS};
 use super::{
     inverse_inertance, kinetic_energy, smallest_eigenvalue_scaled, ContactGeometry, Ellipsoid,
-    Plane, SymMatrix,
+    Plane, Pose, State, SymMatrix,
 };
 
 /// `energy_gain` fires when `T⁺ > T⁻(1 + ENERGY_GAIN_RELATIVE)`.
@@ -49,23 +49,6 @@ impl Law {
             Law::Stronge => "stronge".into(),
         }
     }
-}
-
-/// Position and orientation of the body: `X = centre + rotation · x`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose {
-    /// Body → world rotation `A`.
-    pub rotation: DMat3,
-    /// Centre `X0` in the world frame (m).
-    pub centre: DVec3,
-}
-
-/// Velocities: centre velocity in the world frame (m/s), angular velocity in
-/// the body frame (rad/s).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct State {
-    pub velocity: DVec3,
-    pub omega: DVec3,
 }
 
 /// Flags an impact can raise (defined in tests/data/golden/README.md).

@@ -7,6 +7,7 @@
 mod body;
 mod compliant;
 mod contact;
+mod elliptic;
 mod flight;
 pub mod friction;
 mod laws;
@@ -16,24 +17,24 @@ mod plane;
 mod rotation;
 mod torque_free;
 
-pub use body::{BodyError, Ellipsoid};
+pub use body::{BodyError, Ellipsoid, Pose, State};
 pub use compliant::{
     damping_for_restitution, damping_table, restitution_for_damping, solve_compliant,
     solve_compliant_with, CompliantError, CompliantOutcome, CompliantParams,
 };
 pub use contact::{inverse_inertance, kinetic_energy, support_point_lagrange, ContactGeometry};
+pub(crate) use elliptic::THETA_TERMS;
+pub use elliptic::{carlson_rf, carlson_rf_series, carlson_rj, Jacobi, ThetaPhase};
 pub use flight::{
-    advance, precess, rk4_rotation, sphere_clearance, spin_bound, time_of_impact, Impact, Motion,
-    Rotation,
+    advance, precess, sphere_clearance, spin_bound, time_of_impact, Impact, Motion, Rotation,
 };
 pub use laws::{
-    apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law, Pose,
-    State, DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
+    apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law,
+    DEGENERATE_EIGEN_THRESHOLD, ENERGY_GAIN_RELATIVE,
 };
 pub use lcp::{solve_lcp, LcpSolution, ACCEPT_RELATIVE, FEASIBILITY_RELATIVE, MAX_LCP_CONTACTS};
 pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
 pub use plane::{Plane, PlaneError, MAX_DROP_PLANES};
 pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};
 pub use torque_free::SEPARATRIX;
-pub(crate) use torque_free::THETA_TERMS;
-pub use torque_free::{carlson_rf, carlson_rj, Jacobi, TorqueFree};
+pub use torque_free::{rk4_rotation, TorqueFree};

@@ -6,7 +6,7 @@
 
 use crate::config::Scene;
 use crate::stats::drops::DropAcc;
-use crate::stats::{LogHistogram, Moments, RatioOfSums, Stat};
+use crate::stats::{Moments, RatioOfSums, Slot, Stat};
 
 /// Statistics of the samples in one active-contact set.
 #[derive(Debug, Clone, Default)]
@@ -230,13 +230,6 @@ impl RunAcc {
             _ => panic!("merging accumulators of different shapes at {}", path()),
         });
     }
-}
-
-/// One accumulator field, as [`RunAcc::visit`] hands it out.
-pub enum Slot<'a> {
-    Count(&'a mut u64),
-    Moments(&'a mut Moments),
-    Histogram(&'a mut LogHistogram),
 }
 
 impl RunAcc {

@@ -7,8 +7,7 @@
 //! [`crate::stats::accumulators::RunAcc::visit`] like the contact
 //! statistics, so shards, merges and clearing treat both alike.
 
-use crate::stats::accumulators::Slot;
-use crate::stats::Moments;
+use crate::stats::{Moments, Slot};
 
 /// Tolerances at which the share of simultaneous impacts is reported (m):
 /// an impact counts as simultaneous within `tol` if its second-closest plane

@@ -24,11 +24,16 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("config", &["physics"]),
     ("sampler", &["physics", "lanes", "config"]),
     ("kernel", &["physics", "lanes", "config", "sampler"]),
-    ("stats", &["physics", "lanes", "config", "sampler", "kernel"]),
+    (
+        "stats",
+        &["physics", "lanes", "config", "sampler", "kernel"],
+    ),
     ("output", &["physics", "config", "stats"]),
     (
         "engine",
-        &["physics", "lanes", "config", "sampler", "kernel", "stats", "output"],
+        &[
+            "physics", "lanes", "config", "sampler", "kernel", "stats", "output",
+        ],
     ),
     (
         "study",
@@ -36,11 +41,15 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "accuracy",
-        &["physics", "lanes", "config", "sampler", "kernel", "stats", "output", "engine", "study"],
+        &[
+            "physics", "lanes", "config", "sampler", "kernel", "stats", "output", "engine", "study",
+        ],
     ),
     (
         "stress",
-        &["physics", "lanes", "config", "sampler", "kernel", "stats", "output", "engine"],
+        &[
+            "physics", "lanes", "config", "sampler", "kernel", "stats", "output", "engine",
+        ],
     ),
 ];
 
@@ -155,7 +164,12 @@ fn paths(code: &str, children: &[String]) -> Vec<(usize, Vec<String>)> {
 
 /// Parses one path (or brace group of paths) at `i`, with `prefix` before
 /// it; calls `emit` for every full path and returns the offset after it.
-fn path_at(code: &str, mut i: usize, prefix: &mut Vec<String>, emit: &mut dyn FnMut(Vec<String>)) -> usize {
+fn path_at(
+    code: &str,
+    mut i: usize,
+    prefix: &mut Vec<String>,
+    emit: &mut dyn FnMut(Vec<String>),
+) -> usize {
     let b = code.as_bytes();
     let skip_ws = |mut i: usize| {
         while i < b.len() && b[i].is_ascii_whitespace() {
@@ -210,7 +224,11 @@ fn defines(file: &File, name: &str) -> bool {
     ];
     file.code.lines().any(|l| {
         let l = l.trim_start();
-        let l = l.strip_prefix("pub(crate) ").or_else(|| l.strip_prefix("pub(super) ")).or_else(|| l.strip_prefix("pub ")).unwrap_or(l);
+        let l = l
+            .strip_prefix("pub(crate) ")
+            .or_else(|| l.strip_prefix("pub(super) "))
+            .or_else(|| l.strip_prefix("pub "))
+            .unwrap_or(l);
         KINDS.iter().any(|k| {
             l.strip_prefix(k).is_some_and(|r| {
                 r.starts_with(name)
@@ -259,7 +277,9 @@ fn resolve<'a>(files: &'a [File], from: &File, path: &[String]) -> Option<&'a Fi
                 return Some(here);
             }
             let child = files.iter().find(|f| {
-                f.module.len() == module.len() + 1 && f.module.starts_with(&module) && defines(f, seg)
+                f.module.len() == module.len() + 1
+                    && f.module.starts_with(&module)
+                    && defines(f, seg)
             });
             return child.or(Some(here));
         }
@@ -328,7 +348,10 @@ fn upward(files: &[File], edges: &[(usize, usize, usize)]) -> Vec<String> {
         let ok = match table.get(a) {
             Some(allowed) => allowed.contains(&b),
             None => {
-                bad.push(format!("src/{}: module {a} is not in the layering table", files[i].rel.display()));
+                bad.push(format!(
+                    "src/{}: module {a} is not in the layering table",
+                    files[i].rel.display()
+                ));
                 continue;
             }
         };
@@ -349,7 +372,13 @@ fn cycles(files: &[File], edges: &[(usize, usize, usize)]) -> Vec<String> {
     let folders: BTreeSet<Vec<String>> = files
         .iter()
         .flat_map(|f| {
-            let dir: Vec<String> = f.rel.parent().unwrap().iter().map(|c| c.to_string_lossy().into_owned()).collect();
+            let dir: Vec<String> = f
+                .rel
+                .parent()
+                .unwrap()
+                .iter()
+                .map(|c| c.to_string_lossy().into_owned())
+                .collect();
             (0..=dir.len()).map(move |k| dir[..k].to_vec())
         })
         .collect();
@@ -357,8 +386,13 @@ fn cycles(files: &[File], edges: &[(usize, usize, usize)]) -> Vec<String> {
     for folder in folders {
         // The node of a file under `folder`: its first path component below it.
         let node = |f: &File| -> Option<String> {
-            let comps: Vec<String> = f.rel.iter().map(|c| c.to_string_lossy().into_owned()).collect();
-            (comps.len() > folder.len() && comps.starts_with(&folder)).then(|| comps[folder.len()].clone())
+            let comps: Vec<String> = f
+                .rel
+                .iter()
+                .map(|c| c.to_string_lossy().into_owned())
+                .collect();
+            (comps.len() > folder.len() && comps.starts_with(&folder))
+                .then(|| comps[folder.len()].clone())
         };
         let mut graph: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
         for &(i, j, line) in edges {
@@ -426,7 +460,11 @@ fn imports_run_down_the_flow() {
         .iter()
         .any(|&(i, j, _)| top(&files[i]) == "kernel" && top(&files[j]) == "physics"));
     let bad = upward(&files, &edges);
-    assert!(bad.is_empty(), "imports against the flow:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "imports against the flow:\n{}",
+        bad.join("\n")
+    );
 }
 
 #[test]
@@ -442,24 +480,50 @@ fn the_checks_catch_what_they_are_for() {
     // An upward import and a cycle, made up: the checks must name both.
     let file = |rel: &str, code: &str| {
         let rel = PathBuf::from(rel);
-        let mut module: Vec<String> = rel.with_extension("").iter().map(|c| c.to_string_lossy().into_owned()).collect();
+        let mut module: Vec<String> = rel
+            .with_extension("")
+            .iter()
+            .map(|c| c.to_string_lossy().into_owned())
+            .collect();
         if module.last().is_some_and(|m| m == "mod") {
             module.pop();
         }
-        File { rel, module, code: code_of(code) }
+        File {
+            rel,
+            module,
+            code: code_of(code),
+        }
     };
     let files = vec![
-        file("physics/mod.rs", "mod a;\nmod b;\npub const LIMIT: usize = 6;\n"),
+        file(
+            "physics/mod.rs",
+            "mod a;\nmod b;\npub const LIMIT: usize = 6;\n",
+        ),
         file("physics/a.rs", "use super::b::g;\npub fn f() {}\n"),
-        file("physics/b.rs", "// use crate::config::X; in a comment\nuse super::a::f;\npub fn g() {}\n"),
-        file("config/mod.rs", "pub struct X;\nuse crate::physics::LIMIT;\n"),
+        file(
+            "physics/b.rs",
+            "// use crate::config::X; in a comment\nuse super::a::f;\npub fn g() {}\n",
+        ),
+        file(
+            "config/mod.rs",
+            "pub struct X;\nuse crate::physics::LIMIT;\n",
+        ),
         file("kernel/mod.rs", "use crate::{physics::a::f, output::Y};\n"),
         file("output/mod.rs", "pub struct Y;\n"),
     ];
     let edges = edges(&files);
     let bad = upward(&files, &edges);
-    assert_eq!(bad, ["src/kernel/mod.rs:1: kernel imports output (src/output/mod.rs)"]);
+    assert_eq!(
+        bad,
+        ["src/kernel/mod.rs:1: kernel imports output (src/output/mod.rs)"]
+    );
     let found = cycles(&files, &edges);
     assert_eq!(found.len(), 1, "{found:?}");
-    assert!(found[0].starts_with("src/physics: a.rs -> b.rs (src/physics/a.rs:1), b.rs -> a.rs (src/physics/b.rs:2)"), "{}", found[0]);
+    assert!(
+        found[0].starts_with(
+            "src/physics: a.rs -> b.rs (src/physics/a.rs:1), b.rs -> a.rs (src/physics/b.rs:2)"
+        ),
+        "{}",
+        found[0]
+    );
 }

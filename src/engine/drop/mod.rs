@@ -17,163 +17,28 @@
 
 use glam::DVec3;
 
-use crate::config::{DropBox, Scene};
+use crate::config::Scene;
 use crate::kernel::{LawOut, Strike};
 use crate::lanes::dispatch::BLOCK;
 use crate::output::samples::SampleRows;
-use crate::physics::{
-    solve_impact, time_of_impact, Ellipsoid, Impact, ImpactError, ImpactOutcome, Law, Motion,
-    Plane, Pose, Rotation, State,
-};
-use crate::sampler::Sampler;
+use crate::physics::{Law, Motion, Rotation};
 use crate::stats::accumulators::RunAcc;
-use crate::stats::block::{block_stats, record_friction, Before, Derived, StatsPlan};
+use crate::stats::block::{block_stats, record_friction, Before, Derived};
 use crate::stats::drops::Ending;
 
+mod ctx;
+mod flight;
 mod walk;
 
+use flight::Stop;
 use walk::{How, Log, Walk};
 
 mod wave;
 
-/// The start of sample `i`: drawn orientation and velocities, centre
-/// uniform in the drop box (draws 9–11, [`Sampler::start_uniforms`]).
-pub fn start_of(start: &DropBox, sampler: &Sampler, i: u64) -> Motion {
-    let (a, v, w) = sampler.reference(i);
-    let (lo, hi) = (start.low, start.high);
-    let u = DVec3::from_array(sampler.start_uniforms(i));
-    Motion {
-        centre: lo + (hi - lo) * u,
-        rotation: a,
-        velocity: v,
-        omega: w,
-    }
-}
+pub use ctx::DropCtx;
+pub(crate) use ctx::Firsts;
+pub use flight::{start_of, Flight};
 
-/// What every flight of a run shares, built once per run (not per sample).
-pub struct Flight {
-    planes: Vec<Plane>,
-    gravity: DVec3,
-    rotation: Rotation,
-    toi_tolerance: f64,
-    horizon: f64,
-    /// Planes within this distance at the impact take part.
-    contact_tolerance: f64,
-}
-
-/// Why a flight ended without a solved impact.
-enum Stop {
-    FlewAway,
-    Unsolved,
-}
-
-impl Flight {
-    /// The scene's flight with the given rotation and time-of-impact
-    /// tolerance (a tolerance above the scene's contact tolerance widens it).
-    pub fn new(scene: &Scene, rotation: Rotation, toi_tolerance: f64) -> Self {
-        let fx = scene.effects();
-        Self {
-            planes: scene.planes().iter().map(|p| p.plane).collect(),
-            gravity: DVec3::new(0.0, 0.0, -fx.gravity),
-            rotation,
-            toi_tolerance,
-            horizon: fx.horizon,
-            contact_tolerance: scene.tolerance().max(toi_tolerance),
-        }
-    }
-
-    /// The scene's own rotation in flight (`effects.flight_rotation`).
-    pub fn rotation_of(scene: &Scene) -> Rotation {
-        let fx = scene.effects();
-        if fx.flight_rotation == "rk4" {
-            Rotation::Rk4 {
-                max_step: fx.flight_step,
-            }
-        } else {
-            Rotation::exact_for(scene.body())
-        }
-    }
-
-    /// Flies from `m` to the next impact and solves it under `law`. An
-    /// impact that touches several planes at once under `stronge` (defined
-    /// for one contact) is solved by `newton` (friction.md), and the third
-    /// value says so (`coupled_fallback`).
-    fn next(
-        &self,
-        body: &Ellipsoid,
-        m: &Motion,
-        law: Law,
-    ) -> Result<(Impact, ImpactOutcome, bool), Stop> {
-        let hit = time_of_impact(
-            body,
-            m,
-            &self.planes,
-            self.gravity,
-            self.rotation,
-            self.toi_tolerance,
-            self.horizon,
-        )
-        .ok_or(Stop::FlewAway)?;
-        let pose = Pose {
-            rotation: hit.motion.rotation,
-            centre: hit.motion.centre,
-        };
-        let state = State {
-            velocity: hit.motion.velocity,
-            omega: hit.motion.omega,
-        };
-        let solve =
-            |law| solve_impact(body, pose, state, &self.planes, law, self.contact_tolerance);
-        match solve(law) {
-            Ok(o) => Ok((hit, o, false)),
-            Err(ImpactError::StrongeSeveral(_)) => solve(Law::Newton)
-                .map(|o| (hit, o, true))
-                .map_err(|_| Stop::Unsolved),
-            Err(_) => Err(Stop::Unsolved),
-        }
-    }
-}
-
-/// What a drop batch needs, built once per run.
-pub struct DropCtx<'a> {
-    scene: &'a Scene,
-    start: DropBox,
-    sampler: Sampler,
-    flight: Flight,
-    plan: StatsPlan,
-    /// Walks by the f64 reference alone (else in lanes of the scene's
-    /// precision).
-    reference: bool,
-    /// The workers' lanes (a `Box<Lanes<N>>` each), kept from batch to
-    /// batch.
-    lanes: crate::engine::pool::Pool<Box<dyn std::any::Any + Send>>,
-}
-
-/// One law's first impacts of a block, in lanes, for the block statistics:
-/// the state before (the impact's own, per law) and the results.
-pub(crate) struct Firsts<'a, const N: usize> {
-    energy: &'a mut [f64; BLOCK],
-    vn: &'a mut [[f64; BLOCK]; N],
-    out: &'a mut LawOut<f64, N>,
-}
-
-impl<const N: usize> Firsts<'_, N> {
-    /// Lane `s`: no impact (`status` 0, or UNSOLVED), its values unread.
-    fn none(&mut self, s: usize, status: u32) {
-        self.out.status[s] = status;
-    }
-
-    /// Lane `s`: the impact `o` of a body that came in with `before`.
-    fn impact(&mut self, s: usize, body: &Ellipsoid, before: &State, o: &Strike, status: u32) {
-        self.energy[s] = o.energy_before;
-        for i in 0..N {
-            self.vn[i][s] = o.normal_velocity_before[i];
-        }
-        o.write(before, body, self.out, s, status);
-    }
-}
-
-/// A worker's lanes, in the scene's precision.
 enum Lanes<const N: usize> {
     F32(Box<wave::Wave<f32, N>>),
     F64(Box<wave::Wave<f64, N>>),
@@ -194,30 +59,7 @@ impl<const N: usize> Lanes<N> {
 /// run dry once per batch.
 const CHUNK: usize = 32 * BLOCK;
 
-impl<'a> DropCtx<'a> {
-    pub fn new(scene: &'a Scene, start: DropBox, keep: crate::config::Keep) -> Self {
-        let fx = scene.effects();
-        Self {
-            scene,
-            start,
-            sampler: Sampler::new(scene),
-            flight: Flight::new(scene, Flight::rotation_of(scene), fx.toi_tolerance),
-            // |ω⁺| changes in flight and at impacts: computed per sample.
-            plan: StatsPlan::of(scene, keep).per_sample_spin(),
-            reference: false,
-            lanes: crate::engine::pool::Pool::new(),
-        }
-    }
-
-    /// The same runs with every flight and impact by the f64 reference, one
-    /// walk after the other (what the lanes are tested against).
-    pub fn by_reference(self) -> Self {
-        Self {
-            reference: true,
-            ..self
-        }
-    }
-
+impl DropCtx<'_> {
     /// Samples `first..first + count` under every law, into `acc` (and one
     /// row per impact into `rows`).
     pub fn run(&self, first: u64, count: u64, acc: &mut RunAcc, rows: Option<&mut SampleRows>) {

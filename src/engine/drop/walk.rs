@@ -13,7 +13,7 @@ use crate::physics::{Motion, State};
 use crate::stats::accumulators::LawAcc;
 use crate::stats::drops::{DropAcc, Ending, SEQUENCE_IMPACTS, SIMULTANEITY_TOLERANCES};
 
-use super::Firsts;
+use super::ctx::Firsts;
 
 /// Where a walk stands between flights.
 #[derive(Debug, Clone, Copy)]
@@ -164,16 +164,19 @@ impl Log {
         }
         if let Some(out) = rows {
             for (k, (motion, strike, time, interval)) in self.rows.iter().enumerate() {
-                push_drop(out, &DropRow {
-                    sample,
-                    law,
-                    bounce: k as u32 + 1,
-                    planes: strike.mask() as u32,
-                    time: *time,
-                    interval: *interval,
-                    motion,
-                    strike,
-                });
+                push_drop(
+                    out,
+                    &DropRow {
+                        sample,
+                        law,
+                        bounce: k as u32 + 1,
+                        planes: strike.mask() as u32,
+                        time: *time,
+                        interval: *interval,
+                        motion,
+                        strike,
+                    },
+                );
             }
         }
         acc.reference_flights += self.reference_flights as u64;
@@ -324,64 +327,64 @@ struct DropRow<'a> {
 /// Appends one impact in the order of
 /// [`drop_columns`](crate::output::samples::drop_columns).
 fn push_drop(rows: &mut SampleRows, r: &DropRow) {
-        rows.index.push(r.sample);
-        rows.law.push(r.law);
-        let m = r.motion;
-        let o = r.strike;
-        let q = DQuat::from_mat3(&m.rotation);
-        let q = if q.w < 0.0 { -q } else { q };
-        let mut cols = rows.columns();
-        let mut put = |v: f64| cols.put(std::iter::once(v));
-        for v in [r.time, r.interval] {
-            put(v);
-        }
-        for v in m.centre.to_array() {
-            put(v);
-        }
-        for v in [q.w, q.x, q.y, q.z] {
-            put(v);
-        }
-        for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
-            put(v);
-        }
+    rows.index.push(r.sample);
+    rows.law.push(r.law);
+    let m = r.motion;
+    let o = r.strike;
+    let q = DQuat::from_mat3(&m.rotation);
+    let q = if q.w < 0.0 { -q } else { q };
+    let mut cols = rows.columns();
+    let mut put = |v: f64| cols.put(std::iter::once(v));
+    for v in [r.time, r.interval] {
+        put(v);
+    }
+    for v in m.centre.to_array() {
+        put(v);
+    }
+    for v in [q.w, q.x, q.y, q.z] {
+        put(v);
+    }
+    for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
+        put(v);
+    }
+    for v in [
+        o.energy_before,
+        o.energy_after,
+        o.energy_after / o.energy_before,
+    ] {
+        put(v);
+    }
+    for v in o
+        .after
+        .velocity
+        .to_array()
+        .into_iter()
+        .chain(o.after.omega.to_array())
+    {
+        put(v);
+    }
+    for i in 0..o.planes {
+        let c = &o.contacts[i];
         for v in [
-            o.energy_before,
-            o.energy_after,
-            o.energy_after / o.energy_before,
+            o.distance[i],
+            o.normal_velocity_before[i],
+            c.normal_velocity_after,
+            c.impulse,
         ] {
             put(v);
         }
-        for v in o
-            .after
-            .velocity
-            .to_array()
-            .into_iter()
-            .chain(o.after.omega.to_array())
-        {
-            put(v);
-        }
-        for i in 0..o.planes {
-            let c = &o.contacts[i];
-            for v in [
-                o.distance[i],
-                o.normal_velocity_before[i],
-                c.normal_velocity_after,
-                c.impulse,
-            ] {
-                put(v);
-            }
-        }
-        let flags = [
-            (o.flags.energy_gain, ENERGY_GAIN),
-            (o.flags.degenerate, DEGENERATE),
-            (o.flags.jammed, JAMMED),
-            (o.flags.unsolved, UNSOLVED),
-        ]
-        .iter()
-        .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
-        // Bounces are at most 10,000, planes at most six, flags end at bit 12.
-        let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
-        for (col, v) in rows.ints.iter_mut().zip(ints) {
-            col.push(v);
-        }
+    }
+    let flags = [
+        (o.flags.energy_gain, ENERGY_GAIN),
+        (o.flags.degenerate, DEGENERATE),
+        (o.flags.jammed, JAMMED),
+        (o.flags.unsolved, UNSOLVED),
+    ]
+    .iter()
+    .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
+    // Bounces are at most 10,000, planes at most six, flags end at bit 12.
+    let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
+    for (col, v) in rows.ints.iter_mut().zip(ints) {
+        col.push(v);
+    }
 }

@@ -42,9 +42,10 @@ use crate::physics::{
 use crate::sampler::Inputs;
 use crate::stats::drops::Ending;
 
-use crate::kernel::Strike;
+use super::ctx::DropCtx;
+use super::flight::{start_of, Flight};
 use super::walk::{How, Log, Walk};
-use super::{start_of, DropCtx, Flight};
+use crate::kernel::Strike;
 
 /// Search steps between harvests of the done lanes.
 const STEPS: u32 = 4;

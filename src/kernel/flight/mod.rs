@@ -16,13 +16,12 @@
 use glam::{DMat3, DVec3};
 
 use crate::lanes::dispatch::{multiversioned, BLOCK};
-use crate::lanes::{select, Real};
+use crate::lanes::{select, sin_cos, Real};
 use crate::physics::{TorqueFree, THETA_TERMS};
 
 pub mod setup;
 
-/// Most Landen levels of a [`crate::physics::Jacobi`].
-const LEVELS: usize = 16;
+use setup::LEVELS;
 
 /// A 3×3 matrix per lane, column-major: `m[col][row][lane]`.
 pub type Mat3Lanes<T> = [[[T; BLOCK]; 3]; 3];
@@ -199,12 +198,6 @@ impl<T: Real> Poses<T> {
         let w = DVec3::from_array(std::array::from_fn(|k| self.omega[k][s].to_f64()));
         (DMat3::from_cols_array(&r), w)
     }
-}
-
-/// `(sin x, cos x)` for any finite x.
-#[inline(always)]
-fn sin_cos<T: Real>(x: T) -> (T, T) {
-    (x * T::from_f64(std::f64::consts::FRAC_1_PI * 0.5)).sin_cos_2pi()
 }
 
 /// `a · b` for 3×3 matrices given by columns.

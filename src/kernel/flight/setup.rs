@@ -30,10 +30,11 @@
 use glam::DVec3;
 
 use crate::lanes::dispatch::{multiversioned, BLOCK};
-use crate::lanes::{select, Real};
-use crate::physics::{SEPARATRIX, THETA_TERMS};
+use crate::lanes::{select, sin_cos, Real};
+use crate::physics::{carlson_rf_series, SEPARATRIX, THETA_TERMS};
 
-use super::LEVELS;
+/// Most Landen levels of a [`crate::physics::Jacobi`].
+pub(crate) const LEVELS: usize = 16;
 
 /// Steps of the AGM for K′: from √m ≥ 1e-7 it has converged to f64 within
 /// eight; two more are margin (a converged AGM stays put).
@@ -309,7 +310,7 @@ pub fn rf(x: f64, y: f64, z: f64) -> f64 {
     for _ in 0..RF_STEPS {
         xyz = duplicate(xyz);
     }
-    rf_series(xyz[0], xyz[1], xyz[2])
+    carlson_rf_series(xyz[0], xyz[1], xyz[2])
 }
 
 /// One of Carlson's duplications.
@@ -330,16 +331,6 @@ fn agm_step(a: f64, b: f64) -> (f64, f64) {
     (0.5 * (a + b), (a * b).sqrt())
 }
 
-/// R_F's sixth-order series at duplicated arguments.
-#[inline(always)]
-fn rf_series(x: f64, y: f64, z: f64) -> f64 {
-    let ave = (x + y + z) / 3.0;
-    let (dx, dy, dz) = ((ave - x) / ave, (ave - y) / ave, (ave - z) / ave);
-    let e2 = dx * dy - dz * dz;
-    let e3 = dx * dy * dz;
-    (1.0 + (e2 / 24.0 - 0.1 - 3.0 / 44.0 * e3) * e2 + e3 / 14.0) / ave.sqrt()
-}
-
 /// The arithmetic–geometric mean of 1 and `b` (0 < b ≤ 1) by
 /// [`AGM_STEPS`] steps.
 #[inline(always)]
@@ -349,12 +340,6 @@ pub fn agm(b: f64) -> f64 {
         (a, b) = agm_step(a, b);
     }
     0.5 * (a + b)
-}
-
-/// `(sin x, cos x)` in lanes.
-#[inline(always)]
-fn sin_cos(x: f64) -> (f64, f64) {
-    (x * (std::f64::consts::FRAC_1_PI * 0.5)).sin_cos_2pi()
 }
 
 multiversioned! {
@@ -539,10 +524,10 @@ multiversioned! {
             let k_complete = std::f64::consts::FRAC_PI_2 / cc[s];
             let pi_complete =
                 std::f64::consts::FRAC_PI_2 * (cb[s] + ca[s] * em[s]) / (em[s] * (em[s] + p[s]));
-            f_r[s] = s_r[s] * rf_series(f_x[s], f_y[s], fz[s]);
+            f_r[s] = s_r[s] * carlson_rf_series(f_x[s], f_y[s], fz[s]);
             out.tau0[s] = 2.0 * turns[s] * k_complete + f_r[s];
             kp[s] = std::f64::consts::FRAC_PI_2 / (0.5 * (ka[s] + kb[s]));
-            gamma[s] = sin_psi[s] * rf_series(gx[s], gy[s], gz[s]);
+            gamma[s] = sin_psi[s] * carlson_rf_series(gx[s], gy[s], gz[s]);
             r[s] = std::f64::consts::PI / k_complete;
             out.scale[s] = 0.5 * r[s];
             out.two_k[s] = 2.0 * k_complete;

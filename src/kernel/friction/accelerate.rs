@@ -21,7 +21,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::kernel::friction::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT};
+use crate::kernel::friction::state::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT};
 use crate::kernel::Consts;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;

@@ -13,32 +13,10 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop)]
 
-use crate::kernel::friction::accelerate::Acceleration;
-use crate::kernel::friction::{Frame, Sweep};
+use super::accelerate::Acceleration;
+use crate::kernel::friction::state::{Frame, Queue, Sweep, WIDTH};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-
-/// Lanes per vector of the widest lane type (f32 on AVX-512): the unit the
-/// sweeping lanes are rounded up to.
-pub(super) const WIDTH: usize = 16;
-
-/// The block's lanes over its sweeps: where each is, and the iterate each
-/// finished with.
-#[repr(C, align(64))]
-pub(super) struct Queue<T, const N: usize> {
-    /// `lane[pos]`: the block lane now at position `pos`.
-    lane: [u16; BLOCK],
-    /// Per block lane: done, and the iterate it was done with.
-    done: [bool; BLOCK],
-    p: [[[T; BLOCK]; 3]; N],
-    dv: [[T; BLOCK]; 3],
-    dw: [[T; BLOCK]; 3],
-    bits: [u32; BLOCK],
-    /// The frame's B3-in-every-lane flags, which compaction narrows to the
-    /// sweeping lanes.
-    b3_all: [bool; N],
-    moved_lanes: bool,
-}
 
 /// `a[pos] = a[src[pos]]` for `pos < n`.
 #[inline(always)]
@@ -76,20 +54,6 @@ impl<T: Real, const N: usize> Frame<T, N> {
 }
 
 impl<T: Real, const N: usize> Queue<T, N> {
-    pub(super) fn new() -> Self {
-        let z = [T::ZERO; BLOCK];
-        Self {
-            lane: std::array::from_fn(|s| s as u16),
-            done: [false; BLOCK],
-            p: [[z; 3]; N],
-            dv: [z; 3],
-            dw: [z; 3],
-            bits: [0; BLOCK],
-            b3_all: [false; N],
-            moved_lanes: false,
-        }
-    }
-
     /// Before the first sweep: every lane in its place, none done.
     pub(super) fn start(&mut self, fr: &Frame<T, N>) {
         self.lane = std::array::from_fn(|s| s as u16);

@@ -5,7 +5,7 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::kernel::friction::Frame;
+use crate::kernel::friction::state::Frame;
 use crate::kernel::geometry::dot3;
 /// The contact frames of a block, and the geometry the statistics read
 /// (normal velocities, T⁻, approach bits; in f32 grazing lanes flagged as

@@ -5,7 +5,7 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::kernel::friction::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT, UNSURE};
+use crate::kernel::friction::state::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT, UNSURE};
 use crate::kernel::geometry::dot3;
 /// Post-impact velocities, normal velocities, energy, tangential impulses
 /// and sliding speeds of a frictional block (`limit`: the impulses are

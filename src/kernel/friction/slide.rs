@@ -6,8 +6,8 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::kernel::friction::{
-    Frame, FrictionConsts, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
+use crate::kernel::friction::state::{
+    Frame, FrictionConsts, Solve, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
 };
 use crate::kernel::geometry::dot3;
 /// The slide case's trigonometric polynomials (friction.md, case 3), with
@@ -21,7 +21,6 @@ use crate::kernel::geometry::dot3;
 /// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
 /// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
 use crate::kernel::{bit, Consts};
-use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slide<T> {
@@ -128,80 +127,6 @@ pub(super) fn positive_on<T: Real, const N: usize>(
         (q(half) > m) & (q(vertex) > m)
     };
     (g[0] > m) & (g[1] > m) & side(g[0], slope[0], curve[0]) & side(g[1], -slope[1], curve[1])
-}
-
-/// One contact's single-contact solve across a block, pass by pass (each
-/// pass a loop over the lanes, so that it vectorises): the set-up with the
-/// stick case, the grid intervals, the refinement of each root, the
-/// choice. Cache-line aligned; one per worker.
-#[repr(C, align(64))]
-pub(super) struct Solve<T> {
-    /// `a = c_n + b` of the free contact-point velocity.
-    pub(super) a: [T; BLOCK],
-    /// The stick case's impulse, and whether it is valid, or clearly not.
-    pub(super) stick: [[T; BLOCK]; 3],
-    pub(super) stick_ok: [bool; BLOCK],
-    pub(super) stick_no: [bool; BLOCK],
-    /// [`Slide`]'s coefficients: A0, A1, B1, A2, B2, N0.
-    pub(super) coef: [[T; BLOCK]; 6],
-    /// Bounds on |F‴|, |F⁗| and |F⁽⁵⁾|, and the margins of F (and N) and
-    /// of D.
-    pub(super) l3: [T; BLOCK],
-    pub(super) l4: [T; BLOCK],
-    pub(super) l5: [T; BLOCK],
-    pub(super) m_f: [T; BLOCK],
-    pub(super) m_d: [T; BLOCK],
-    /// F, F′, F″, F‴, F⁗ at the current interval's left end.
-    pub(super) left: [[T; BLOCK]; 5],
-    /// Sign changes of F so far, and whether every interval was certified.
-    pub(super) changes: [T; BLOCK],
-    pub(super) grid_ok: [bool; BLOCK],
-    /// Per sign change (at most four): the interval index j, F(θ_j),
-    /// F(θ_j+1).
-    pub(super) slot: [[[T; BLOCK]; 3]; 4],
-    /// The refinement of the current root: cos θ_j, sin θ_j, t, lo, hi and
-    /// the last step.
-    pub(super) newton: [[T; BLOCK]; 6],
-    /// Valid slide roots, the last one's direction, and whether every root
-    /// was judged clear of the margins.
-    pub(super) count: [T; BLOCK],
-    pub(super) dir: [[T; BLOCK]; 2],
-    pub(super) roots_ok: [bool; BLOCK],
-    /// cos, sin of the certified search's start: the direction of
-    /// `c_t + (−a/W_nn) w_t`, the sliding under the frictionless normal
-    /// impulse (friction.md, after B3).
-    pub(super) start: [[T; BLOCK]; 2],
-    /// The lanes every pass runs over: the block, or after compaction its
-    /// first `len` positions (a multiple of the vector width).
-    pub(super) len: usize,
-}
-
-impl<T: Real> Solve<T> {
-    pub(super) fn empty() -> Self {
-        let z = [T::ZERO; BLOCK];
-        Self {
-            a: z,
-            stick: [z; 3],
-            stick_ok: [false; BLOCK],
-            stick_no: [false; BLOCK],
-            coef: [z; 6],
-            l3: z,
-            l4: z,
-            l5: z,
-            m_f: z,
-            m_d: z,
-            left: [z; 5],
-            changes: z,
-            grid_ok: [false; BLOCK],
-            slot: [[z; 3]; 4],
-            newton: [z; 6],
-            count: z,
-            dir: [z; 2],
-            roots_ok: [false; BLOCK],
-            start: [z; 2],
-            len: BLOCK,
-        }
-    }
 }
 
 /// The Delassus block of contact i in lane s.

@@ -6,13 +6,13 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::kernel::friction::accelerate::Acceleration;
+use super::accelerate::Acceleration;
 use crate::kernel::friction::post::friction_post;
 use crate::kernel::friction::slide::{
     certified_settle, certified_start, certified_step, finish, grid_setup, interval, restart,
     root_judge, root_start, root_step, setup,
 };
-use crate::kernel::friction::{Frame, Sweep, GRID, UNSURE};
+use crate::kernel::friction::state::{Frame, Sweep, GRID, UNSURE};
 /// One visit of contact i in every lane (friction.md's single-contact
 /// solve, or with μ = 0 its closed form).
 use crate::kernel::{Consts, Geometry, LawOut};
