@@ -6,7 +6,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 use crate::config::Scene;
-use glam::{DMat3, DQuat};
+use glam::DMat3;
 
 use crate::kernel::{
     active_mask, check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute,
@@ -15,13 +15,14 @@ use crate::kernel::{
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
 use crate::output::samples::SampleRows;
-use crate::physics::Law;
+use crate::physics::{quaternion_from_matrix, Law};
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::record_friction;
 use crate::stats::block::{block_stats, Before, Derived, StatsPlan};
 
-/// Scratch space of one worker: allocated once per batch, reused by blocks.
+/// Scratch space of one worker: taken from the run's pool for a batch and
+/// returned after it, so a worker allocates it once per run.
 pub(crate) struct Work<T, const N: usize> {
     pub(crate) inputs: Box<Inputs<T>>,
     pub(crate) geo: Box<Geometry<T, N>>,
@@ -287,8 +288,7 @@ pub(crate) fn push_rows<T: Real, const N: usize>(
     let quaternion = (0..4).any(|k| rows.is_filled(k));
     for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
         let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
-        let r = DQuat::from_mat3(&a);
-        let r = if r.w < 0.0 { -r } else { r };
+        let r = quaternion_from_matrix(a);
         *q = [r.w, r.x, r.y, r.z];
     }
     let mut cols = rows.columns();

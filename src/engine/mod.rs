@@ -275,8 +275,9 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
     run_tree(scene, batch_range, &run_batch, &accs, sink)
 }
 
-/// A drop scene's batches: per sample, the f64 reference flight and
-/// impacts of [`crate::engine::drop`], through the same tree as contact batches.
+/// A drop scene's batches: the walks of [`crate::engine::drop`] in lanes
+/// (the f64 reference for what lanes leave), through the same tree as
+/// contact batches.
 #[allow(clippy::too_many_arguments)]
 fn run_drops(
     scene: &Scene,

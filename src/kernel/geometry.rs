@@ -44,8 +44,7 @@ pub fn geometry<T: Real, const N: usize, const ROT: bool>(
     let det_ok0 = well_conditioned(&c.g0, c.det_min);
     // Planes along the axes (every shipped scene) read rows of A and
     // components of v instead of multiplying by the normals' zeros and
-    // ones: the same values (S3 f32 about 3.5 % faster end to end, S1
-    // about 2.5 %; Zen 4, 2026-11-24).
+    // ones: the same values, faster (docs/performance.md, "Axis planes").
     if ROT {
         // The lever arms, G and its conditioning in a pass of their own:
         // the chain from A through the support point's square root and

@@ -14,6 +14,7 @@ pub mod shard;
 mod staging;
 pub mod summary;
 mod tables;
+mod text;
 
 pub use staging::{prepare_dir, OutputError, Staging};
 pub use tables::{

@@ -35,6 +35,8 @@ pub use laws::{
 pub use lcp::{solve_lcp, LcpSolution, ACCEPT_RELATIVE, FEASIBILITY_RELATIVE, MAX_LCP_CONTACTS};
 pub use linalg::{smallest_eigenvalue_scaled, SymMatrix};
 pub use plane::{Plane, PlaneError, MAX_DROP_PLANES};
-pub use rotation::{bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, Bryan};
+pub use rotation::{
+    bryan_from_matrix, matrix_from_bryan, matrix_from_quaternion, quaternion_from_matrix, Bryan,
+};
 pub use torque_free::SEPARATRIX;
 pub use torque_free::{rk4_rotation, TorqueFree};

@@ -27,6 +27,17 @@ fn rz(t: f64) -> DMat3 {
     DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z)
 }
 
+/// The unit quaternion of a rotation matrix, with w ≥ 0 (of the two
+/// quaternions of a rotation, the one the per-sample rows report).
+pub fn quaternion_from_matrix(a: DMat3) -> DQuat {
+    let q = DQuat::from_mat3(&a);
+    if q.w < 0.0 {
+        -q
+    } else {
+        q
+    }
+}
+
 /// `A = Rx(ψ)·Ry(θ)·Rz(φ)` (eq. 8–11). With ψ = 45°, θ = 30°, φ = 90° the
 /// first row is `(0, −√3/2, 1/2)` (the paper's (xi)).
 pub fn matrix_from_bryan(angles: Bryan) -> DMat3 {

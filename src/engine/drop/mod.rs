@@ -7,10 +7,11 @@
 //!
 //! The engine runs drop batches like contact batches (same counter-based
 //! draws, pool and merge tree, so the same shards, merges and thread
-//! independence); this module is what one batch does: per sample, the f64
-//! reference physics ([`crate::physics`]) for every law, every bounce
-//! recorded in [`DropAcc`] and, when asked for, one per-sample row per
-//! impact. The first impacts of a block of samples are written into lanes
+//! independence); this module is what one batch does: a wavefront of walks
+//! (per sample and law) in lanes of the scene's precision (`wave.rs`:
+//! flights, times of impact and impacts), the f64 reference
+//! ([`crate::physics`]) for what the lanes leave, every bounce recorded in
+//! [`DropAcc`] and, when asked for, one per-sample row per impact. The first impacts of a block of samples are written into lanes
 //! by the contact fallback's writer ([`write_outcome`]) and recorded by the
 //! contact scenes' block statistics, so both kinds of scene share one
 //! recorder.

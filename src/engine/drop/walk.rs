@@ -5,11 +5,9 @@
 //! of [`super::wave`] or the reference); what a sample contributes, and in
 //! which order, depends only on its index.
 
-use glam::DQuat;
-
 use crate::kernel::{Strike, DEGENERATE, ENERGY_GAIN, JAMMED, UNSOLVED};
 use crate::output::samples::SampleRows;
-use crate::physics::{Motion, State};
+use crate::physics::{quaternion_from_matrix, Motion, State};
 use crate::stats::accumulators::LawAcc;
 use crate::stats::drops::{DropAcc, Ending, SEQUENCE_IMPACTS, SIMULTANEITY_TOLERANCES};
 
@@ -331,8 +329,7 @@ fn push_drop(rows: &mut SampleRows, r: &DropRow) {
     rows.law.push(r.law);
     let m = r.motion;
     let o = r.strike;
-    let q = DQuat::from_mat3(&m.rotation);
-    let q = if q.w < 0.0 { -q } else { q };
+    let q = quaternion_from_matrix(m.rotation);
     let mut cols = rows.columns();
     let mut put = |v: f64| cols.put(std::iter::once(v));
     for v in [r.time, r.interval] {

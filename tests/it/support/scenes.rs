@@ -36,7 +36,9 @@ pub fn run<S: Strategy>(
 }
 
 pub fn unit_quaternion() -> impl Strategy<Value = DQuat> {
-    // Four normals (Box–Muller from uniforms) normalised: Haar on SO(3).
+    // Four uniforms on [−1, 1], normalised: every unit quaternion can come
+    // out, though not uniformly (this is not the Haar measure). The
+    // properties tested hold for every orientation, so coverage is enough.
     prop::array::uniform4(-1.0f64..1.0)
         .prop_filter("non-degenerate", |q| {
             q.iter().map(|x| x * x).sum::<f64>() > 1e-3
