@@ -10,7 +10,7 @@ use glam::{DMat3, DVec3};
 use crate::config::Scene;
 use crate::config::{RawBody, RawOrientation, RawPlacement, RawPlane, RawScene, RawVector};
 use crate::engine::evaluate_samples;
-use crate::kernel::{DEGENERATE, ENERGY_GAIN, JAMMED, RECOMPUTED};
+use crate::kernel::Status;
 use crate::physics::{
     bryan_from_matrix, matrix_from_bryan, solve_impact, Bryan, Ellipsoid, Law, Plane, Pose, State,
 };
@@ -229,10 +229,10 @@ fn kernel_rows(
                         row.bound = bound;
                     }
                 }
-                row.degenerate += (got.status & DEGENERATE != 0) as usize;
-                row.jammed += (got.status & JAMMED != 0) as usize;
-                row.energy_gain += (got.status & ENERGY_GAIN != 0) as usize;
-                row.recomputed += (got.status & RECOMPUTED != 0) as usize;
+                row.degenerate += (got.status.has(Status::DEGENERATE)) as usize;
+                row.jammed += (got.status.has(Status::JAMMED)) as usize;
+                row.energy_gain += (got.status.has(Status::ENERGY_GAIN)) as usize;
+                row.recomputed += (got.status.has(Status::RECOMPUTED)) as usize;
             }
             rows.push(row);
         }
@@ -270,7 +270,7 @@ fn kernel_residual(
         _ => 0.0,
     };
     let mut r = off / scale;
-    if law == Law::Newton && got.status & crate::kernel::RECOMPUTED == 0 {
+    if law == Law::Newton && !got.status.has(Status::RECOMPUTED) {
         for (i, &p) in s.touching().iter().enumerate() {
             let c = &want.contacts[p];
             if c.approaching && got.impulses[i] > 1e-9 * s.body().mass() * scale {

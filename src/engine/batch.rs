@@ -9,8 +9,8 @@ use crate::config::Scene;
 use glam::DMat3;
 
 use crate::kernel::{
-    active_mask, check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute,
-    sticking_mask, Consts, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, UNCONVERGED,
+    check_extra_planes, frame, friction_impulses, geometry, impulses, post, recompute, Consts,
+    Frame, Geometry, LawOut, Status, Sweep,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
@@ -235,18 +235,18 @@ pub(crate) fn fallback<T: Real, const N: usize>(
     if sampler.partial_rows() {
         // The reference reads the whole orientation of a flagged lane: its
         // unwritten rows, as the full fill would have written them.
-        let mut flagged = 0u32;
+        let mut flagged = Status::NONE;
         for out in work.outs.iter() {
             for st in &out.status[..count] {
-                flagged |= st & crate::kernel::RECOMPUTE;
+                flagged |= *st & Status::NEEDS_REFERENCE;
             }
         }
-        if flagged != 0 {
+        if flagged != Status::NONE {
             for s in 0..count {
                 if work
                     .outs
                     .iter()
-                    .any(|o| o.status[s] & crate::kernel::RECOMPUTE != 0)
+                    .any(|o| o.status[s].has(Status::NEEDS_REFERENCE))
                 {
                     let a = sampler.orientation_of::<T>(first + s as u64);
                     for (k, ak) in a.into_iter().enumerate() {
@@ -260,7 +260,7 @@ pub(crate) fn fallback<T: Real, const N: usize>(
         if extra_planes {
             // Extra-plane checks landed in geo.status after the lane passes.
             for s in 0..count {
-                out.status[s] |= work.geo.status[s] & crate::kernel::RECOMPUTE;
+                out.status[s] |= work.geo.status[s] & Status::NEEDS_REFERENCE;
             }
         }
         recompute(scene, *law, &work.inputs, out, count);
@@ -328,20 +328,18 @@ pub(crate) fn push_rows<T: Real, const N: usize>(
     for out in outs {
         let status = &out.status[..count];
         let active = ints.next().expect("column count");
-        active.extend(status.iter().map(|&st| active_mask::<N>(st) as u16));
+        active.extend(status.iter().map(|&st| st.active_mask::<N>() as u16));
         // Bits 0–14 (a u16 holds them); the friction bits above have their
         // own columns.
         let flags = ints.next().expect("column count");
-        flags.extend(status.iter().map(|&st| st as u16));
+        flags.extend(status.iter().map(|&st| st.bits() as u16));
         if friction {
             let sticking = ints.next().expect("column count");
-            sticking.extend(status.iter().map(|&st| sticking_mask::<N>(st) as u16));
+            sticking.extend(status.iter().map(|&st| st.sticking_mask::<N>() as u16));
             let friction_flags = ints.next().expect("column count");
-            friction_flags.extend(
-                status.iter().map(|&st| {
-                    (st & AMBIGUOUS != 0) as u16 | (((st & UNCONVERGED != 0) as u16) << 1)
-                }),
-            );
+            friction_flags.extend(status.iter().map(|&st| {
+                (st.has(Status::AMBIGUOUS)) as u16 | (((st.has(Status::UNCONVERGED)) as u16) << 1)
+            }));
         }
     }
 }

@@ -4,7 +4,7 @@ use crate::config::{Keep, Scene};
 use crate::engine::batch::{block_lanes, fallback, Work};
 use crate::engine::with_kernel;
 use crate::kernel::Consts;
-use crate::kernel::KernelVariant;
+use crate::kernel::{KernelVariant, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::physics::Law;
@@ -32,7 +32,7 @@ pub struct SampleOutcome {
     pub energy_before: f64,
     pub energy_after: f64,
     /// Kernel status bits (see `kernel`).
-    pub status: u32,
+    pub status: Status,
 }
 
 fn evaluate_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR: bool>(

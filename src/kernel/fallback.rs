@@ -8,10 +8,7 @@
 use glam::DMat3;
 
 use crate::config::Scene;
-use crate::kernel::{
-    active_bit, approaching_bit, bit, sticking_bit, Geometry, LawOut, AMBIGUOUS, DEGENERATE,
-    ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTE, RECOMPUTED, UNCONVERGED, UNSOLVED,
-};
+use crate::kernel::{Geometry, LawOut, Status};
 use crate::lanes::Real;
 use crate::physics::{
     solve_impact, ContactOutcome, Ellipsoid, Flags, ImpactOutcome, Law, Pose, State,
@@ -42,7 +39,7 @@ pub fn check_extra_planes<T: Real, const N: usize>(
             let h = (scene.body().semi_axes() * u).length();
             let d = p.plane.signed_distance(centre) - h;
             if d <= scene.tolerance() {
-                *status |= RECOMPUTE;
+                *status |= Status::NEEDS_REFERENCE;
             }
         }
     }
@@ -64,16 +61,16 @@ pub fn recompute<T: Real, const N: usize>(
     count: usize,
 ) {
     // Most blocks have no flagged lane: one vectorised test first.
-    let mut any = 0u32;
+    let mut any = Status::NONE;
     for st in &out.status[..count] {
-        any |= st & RECOMPUTE;
+        any |= *st & Status::NEEDS_REFERENCE;
     }
-    if any == 0 {
+    if any == Status::NONE {
         return;
     }
     let planes: Vec<_> = scene.planes().iter().map(|p| p.plane).collect();
     for s in 0..count {
-        if out.status[s] & RECOMPUTE == 0 {
+        if !out.status[s].has(Status::NEEDS_REFERENCE) {
             continue;
         }
         let a = lane_matrix(x, s);
@@ -85,16 +82,16 @@ pub fn recompute<T: Real, const N: usize>(
             rotation: a,
             centre: scene.centre(a),
         };
-        let mut status = RECOMPUTED;
+        let mut status = Status::RECOMPUTED;
         let Ok(o) = solve_impact(scene.body(), pose, state, &planes, law, scene.tolerance()) else {
-            out.status[s] = status | UNSOLVED;
+            out.status[s] = status | Status::UNSOLVED;
             continue;
         };
         if o.contacts
             .iter()
             .any(|c| c.geometry.distance < -scene.tolerance())
         {
-            status |= PENETRATING;
+            status |= Status::PENETRATING;
         }
         write_outcome(&o, &state, scene.body(), scene.touching(), out, s, status);
     }
@@ -137,7 +134,7 @@ pub fn write_outcome<T: Real, const N: usize>(
     planes: &[usize],
     out: &mut LawOut<T, N>,
     s: usize,
-    status: u32,
+    status: Status,
 ) {
     let contacts = planes.iter().map(|&p| ContactRecord::from(&o.contacts[p]));
     let after = (&o.after, o.energy_after, o.flags);
@@ -157,7 +154,7 @@ pub fn write_record<T: Real, const N: usize>(
     body: &Ellipsoid,
     out: &mut LawOut<T, N>,
     s: usize,
-    mut status: u32,
+    mut status: Status,
 ) {
     let stuck_at = crate::physics::friction::sticking_threshold(body, before, after);
     for (i, ct) in contacts.enumerate() {
@@ -165,11 +162,11 @@ pub fn write_record<T: Real, const N: usize>(
         out.vn_after[i][s] = T::from_f64(ct.normal_velocity_after);
         out.tangential[i][s] = T::from_f64(ct.tangential);
         out.sliding[i][s] = T::from_f64(ct.sliding_after);
-        status |= bit(ct.impulse > 0.0, active_bit(i))
-            | bit(ct.approaching, approaching_bit(i))
-            | bit(
+        status |= Status::when(ct.impulse > 0.0, Status::active(i))
+            | Status::when(ct.approaching, Status::approaching(i))
+            | Status::when(
                 ct.impulse > 0.0 && ct.sliding_after <= stuck_at,
-                sticking_bit(i),
+                Status::sticking(i),
             );
     }
     for k in 0..3 {
@@ -177,11 +174,6 @@ pub fn write_record<T: Real, const N: usize>(
         out.w_after[k][s] = T::from_f64(after.omega[k]);
     }
     out.t_after[s] = T::from_f64(energy_after);
-    status |= bit(flags.energy_gain, ENERGY_GAIN)
-        | bit(flags.degenerate, DEGENERATE)
-        | bit(flags.jammed, JAMMED)
-        | bit(flags.unsolved, UNSOLVED)
-        | bit(flags.ambiguous, AMBIGUOUS)
-        | bit(flags.unconverged, UNCONVERGED);
+    status |= flags.to_bits();
     out.status[s] = status;
 }

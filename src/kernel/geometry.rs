@@ -5,7 +5,7 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::kernel::{bit, Consts, Geometry, APPROACHING_SHIFT, RECOMPUTE};
+use crate::kernel::{Consts, Geometry, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::sampler::Inputs;
@@ -94,7 +94,7 @@ pub(crate) fn normal_velocities<T: Real, const N: usize, const ROT: bool, const 
         let mut status = if ROT {
             out.status[s]
         } else {
-            bit(!det_ok0, RECOMPUTE)
+            Status::when(!det_ok0, Status::NEEDS_REFERENCE)
         };
         for i in 0..N {
             let mut vn = if AXES {
@@ -107,8 +107,11 @@ pub(crate) fn normal_velocities<T: Real, const N: usize, const ROT: bool, const 
                 vn = rho[2].mul_add(w[2], rho[1].mul_add(w[1], rho[0].mul_add(w[0], vn)));
             }
             out.vn[i][s] = vn;
-            status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
-            status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
+            status |= Status::when(vn < T::ZERO, Status::approaching(i));
+            status |= Status::when(
+                f32_lanes && vn.abs() < c.graze * vscale,
+                Status::NEEDS_REFERENCE,
+            );
         }
         out.t_before[s] = T::HALF
             * c.mass.mul_add(
@@ -183,7 +186,10 @@ pub(crate) fn lever_arms<T: Real, const N: usize, const AXES: bool, const CONDIT
                 out.g[i][j][s] = g[i][j];
             }
         }
-        out.status[s] = bit(CONDITIONING && !well_conditioned(&g, c.det_min), RECOMPUTE);
+        out.status[s] = Status::when(
+            CONDITIONING && !well_conditioned(&g, c.det_min),
+            Status::NEEDS_REFERENCE,
+        );
     }
 }
 

@@ -7,7 +7,7 @@
 
 use crate::kernel::geometry::{dot3, g_at};
 use crate::kernel::lcp::{lane_g, lcp_block, lcp_lanes};
-use crate::kernel::{bit, Consts, Geometry, LawOut, ACTIVE_SHIFT, ENERGY_GAIN, RECOMPUTE};
+use crate::kernel::{Consts, Geometry, LawOut, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
 use crate::physics::Law;
@@ -66,7 +66,8 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
             // G's conditioning (`geometry` leaves it to this law when it
             // is the only one; the same bit either way).
             for s in 0..BLOCK {
-                out.status[s] = geo.status[s] | bit(!(ok[s] & conditioned[s]), RECOMPUTE);
+                out.status[s] = geo.status[s]
+                    | Status::when(!(ok[s] & conditioned[s]), Status::NEEDS_REFERENCE);
             }
         }
         Law::Poisson => {
@@ -95,7 +96,8 @@ pub fn impulses<T: Real, const N: usize, const ROT: bool, const CPL: bool>(
                 for i in 0..N {
                     out.lambda[i][s] = lc[i][s] + c.k[i] * lc[i][s] + out.lambda[i][s];
                 }
-                out.status[s] = geo.status[s] | bit(!(ok1[s] && ok2[s]), RECOMPUTE);
+                out.status[s] =
+                    geo.status[s] | Status::when(!(ok1[s] && ok2[s]), Status::NEEDS_REFERENCE);
             }
         }
         Law::Pgs { sweeps } => {
@@ -137,7 +139,7 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
         let lam: [T; N] = std::array::from_fn(|i| out.lambda[i][s]);
         let mut dv = [T::ZERO; 3];
         let mut dl = [T::ZERO; 3];
-        let mut active = 0u32;
+        let mut active = Status::NONE;
         for i in 0..N {
             for k in 0..3 {
                 dv[k] = lam[i].mul_add(c.normal[i][k], dv[k]);
@@ -145,7 +147,7 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
                     dl[k] = lam[i].mul_add(geo.rho[i][k][s], dl[k]);
                 }
             }
-            active |= ((lam[i] > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
+            active |= Status::when(lam[i] > T::ZERO, Status::active(i));
         }
         let v: [T; 3] = std::array::from_fn(|k| dv[k].mul_add(c.inv_mass, x.v[k][s]));
         let w: [T; 3] = std::array::from_fn(|k| {
@@ -172,7 +174,9 @@ pub fn post<T: Real, const N: usize, const ROT: bool>(
             out.w_after[k][s] = w[k];
         }
         out.t_after[s] = t1;
-        out.status[s] |= active | bit(gained, ENERGY_GAIN) | bit(unsure, RECOMPUTE);
+        out.status[s] |= active
+            | Status::when(gained, Status::ENERGY_GAIN)
+            | Status::when(unsure, Status::NEEDS_REFERENCE);
     }
 }
 

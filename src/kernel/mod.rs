@@ -4,7 +4,7 @@
 //! Every pass is a branch-free loop over the lanes of a block, written once
 //! for [`Real`] and const N, so the loop vectoriser can use full-width SIMD
 //! (see [`crate::lanes`]). Laws are chosen per pass, never per sample. Lanes whose
-//! answer the fast path cannot vouch for are flagged [`RECOMPUTE`] and solved
+//! answer the fast path cannot vouch for are flagged [`Status::NEEDS_REFERENCE`] and solved
 //! again by the f64 reference in `physics/`:
 //! - G nearly singular: `det S < det_min` (S the unit-diagonal G; by
 //!   Fischer's and Hadamard's inequalities every principal submatrix is then
@@ -30,6 +30,7 @@ mod friction;
 mod geometry;
 mod impulses;
 mod lcp;
+mod status;
 mod strike;
 mod variant;
 
@@ -41,96 +42,9 @@ pub use fallback::{check_extra_planes, recompute, write_outcome, write_record, C
 pub use friction::{frame, friction_impulses, Frame, FrictionConsts, Sweep};
 pub use geometry::geometry;
 pub use impulses::{impulses, post};
+pub use status::Status;
 pub use strike::Strike;
 pub use variant::KernelVariant;
-
-/// Lane status bits.
-pub const APPROACHING_SHIFT: u32 = 0; // bits 0..N: contact i approaching
-pub const ACTIVE_SHIFT: u32 = 4; // bits 4..4+N: λ_i > 0
-pub const RECOMPUTE: u32 = 1 << 8;
-pub const ENERGY_GAIN: u32 = 1 << 9;
-pub const DEGENERATE: u32 = 1 << 10;
-pub const JAMMED: u32 = 1 << 11;
-pub const UNSOLVED: u32 = 1 << 12;
-pub const PENETRATING: u32 = 1 << 13;
-pub const RECOMPUTED: u32 = 1 << 14;
-/// With friction: bits 16..16+N, contact i ended sticking (active, with
-/// `|c⁺_t| ≤ 1e-9 ×` the velocity scale); several valid single-contact
-/// solutions; neither Gauss–Seidel converged (friction.md).
-pub const STICKING_SHIFT: u32 = 16;
-pub const AMBIGUOUS: u32 = 1 << 20;
-pub const UNCONVERGED: u32 = 1 << 21;
-/// Contacts 4 and 5 (a drop scene has up to six planes; the contact kernel
-/// at most three): approaching at bits 22–23, active at 24–25, sticking at
-/// 26–27, so that contacts 0–3 keep the documented positions above.
-const HIGH_APPROACHING: u32 = 22;
-const HIGH_ACTIVE: u32 = 24;
-const HIGH_STICKING: u32 = 26;
-
-/// Contact `i`'s bit of a kind whose contacts 0–3 start at bit `low` and
-/// contacts 4–5 at bit `high`.
-#[inline(always)]
-const fn contact_bit(i: usize, low: u32, high: u32) -> u32 {
-    if i < 4 {
-        1 << (low + i as u32)
-    } else {
-        1 << (high + i as u32 - 4)
-    }
-}
-
-/// The bits of one kind (laid out as in [`contact_bit`]) as a mask over
-/// `N` contacts (bit i: contact i).
-#[inline(always)]
-fn contact_mask<const N: usize>(st: u32, low: u32, high: u32) -> u32 {
-    let low_bits = (st >> low) & ((1 << N.min(4)) - 1);
-    if N <= 4 {
-        low_bits
-    } else {
-        low_bits | (((st >> high) & ((1 << (N - 4)) - 1)) << 4)
-    }
-}
-
-/// Contact `i`'s approaching bit.
-#[inline(always)]
-pub const fn approaching_bit(i: usize) -> u32 {
-    contact_bit(i, APPROACHING_SHIFT, HIGH_APPROACHING)
-}
-
-/// Contact `i`'s active bit (λ_i > 0).
-#[inline(always)]
-pub const fn active_bit(i: usize) -> u32 {
-    contact_bit(i, ACTIVE_SHIFT, HIGH_ACTIVE)
-}
-
-/// Contact `i`'s sticking bit.
-#[inline(always)]
-pub const fn sticking_bit(i: usize) -> u32 {
-    contact_bit(i, STICKING_SHIFT, HIGH_STICKING)
-}
-
-/// The approaching contacts of a status, as a mask over `N` contacts.
-#[inline(always)]
-pub fn approaching_mask<const N: usize>(st: u32) -> u32 {
-    contact_mask::<N>(st, APPROACHING_SHIFT, HIGH_APPROACHING)
-}
-
-/// The active contacts (λ > 0) of a status, as a mask over `N` contacts.
-#[inline(always)]
-pub fn active_mask<const N: usize>(st: u32) -> u32 {
-    contact_mask::<N>(st, ACTIVE_SHIFT, HIGH_ACTIVE)
-}
-
-/// The contacts that ended sticking, as a mask over `N` contacts.
-#[inline(always)]
-pub fn sticking_mask<const N: usize>(st: u32) -> u32 {
-    contact_mask::<N>(st, STICKING_SHIFT, HIGH_STICKING)
-}
-
-/// `flag` when `c` holds, else 0, without a branch.
-#[inline(always)]
-fn bit(c: bool, flag: u32) -> u32 {
-    (c as u32) * flag
-}
 
 /// Constants of a scene for the kernel, in the lane type.
 #[derive(Debug, Clone)]
@@ -238,7 +152,7 @@ pub struct Geometry<T, const N: usize> {
     /// G per lane: only the upper triangle (`g[i][j]`, i ≤ j) is written.
     pub g: [[[T; BLOCK]; N]; N],
     pub t_before: [T; BLOCK],
-    pub status: [u32; BLOCK],
+    pub status: [Status; BLOCK],
 }
 
 /// Per-law results of a block.
@@ -249,7 +163,7 @@ pub struct LawOut<T, const N: usize> {
     pub v_after: [[T; BLOCK]; 3],
     pub w_after: [[T; BLOCK]; 3],
     pub t_after: [T; BLOCK],
-    pub status: [u32; BLOCK],
+    pub status: [Status; BLOCK],
     /// With friction, per contact: `|f_i|` (N·s) and `|c⁺_t,i|` (m/s).
     pub tangential: [[T; BLOCK]; N],
     pub sliding: [[T; BLOCK]; N],
@@ -262,7 +176,7 @@ impl<T: Real, const N: usize> Geometry<T, N> {
             rho: [[[T::ZERO; BLOCK]; 3]; N],
             g: [[[T::ZERO; BLOCK]; N]; N],
             t_before: [T::ZERO; BLOCK],
-            status: [0; BLOCK],
+            status: [Status::NONE; BLOCK],
         })
     }
 }
@@ -275,7 +189,7 @@ impl<T: Real, const N: usize> LawOut<T, N> {
             v_after: [[T::ZERO; BLOCK]; 3],
             w_after: [[T::ZERO; BLOCK]; 3],
             t_after: [T::ZERO; BLOCK],
-            status: [0; BLOCK],
+            status: [Status::NONE; BLOCK],
             tangential: [[T::ZERO; BLOCK]; N],
             sliding: [[T::ZERO; BLOCK]; N],
         })
@@ -435,14 +349,14 @@ mod tests {
                         .map(|t| t.to_f64()),
                 );
                 v.extend(g.t_before.iter().map(|t| t.to_f64()));
-                v.extend(g.status.iter().map(|&s| s as f64));
+                v.extend(g.status.iter().map(|&s| s.bits() as f64));
                 v.into_iter().map(f64::to_bits).collect::<Vec<u64>>()
             };
             assert_eq!(bits(&a), bits(&b), "block {block}");
             approaching += a
                 .status
                 .iter()
-                .filter(|&&s| s & ((1 << N) - 1) != 0)
+                .filter(|&&s| s.approaching_mask::<N>() != 0)
                 .count();
         }
         assert!(

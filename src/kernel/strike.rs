@@ -5,6 +5,7 @@
 //! per-impact rows are written alike whichever solved it.
 
 use super::{write_record, ContactRecord, LawOut};
+use crate::kernel::Status;
 use crate::lanes::Real;
 use crate::physics::MAX_DROP_PLANES;
 use crate::physics::{Ellipsoid, Flags, ImpactOutcome, State};
@@ -72,7 +73,7 @@ impl Strike {
         body: &Ellipsoid,
         out: &mut LawOut<T, N>,
         s: usize,
-        status: u32,
+        status: Status,
     ) {
         let after = (&self.after, self.energy_after, self.flags);
         let contacts = self.contacts[..self.planes].iter().copied();

@@ -7,10 +7,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 use crate::config::{Keep, Quantiles, Scene, Statistic, Statistics};
-use crate::kernel::{
-    active_bit, active_mask, approaching_mask, sticking_bit, Geometry, LawOut, AMBIGUOUS,
-    DEGENERATE, ENERGY_GAIN, JAMMED, PENETRATING, RECOMPUTED, UNCONVERGED, UNSOLVED,
-};
+use crate::kernel::{Geometry, LawOut, Status};
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::{select, Real};
 use crate::stats::accumulators::{FrictionAcc, GroupAcc, LawAcc, RunAcc};
@@ -139,14 +136,14 @@ fn derive<T: Real, const N: usize>(
     for s in 0..BLOCK {
         let st = out.status[s];
         let in_batch = s < count;
-        let valid = in_batch & (st & PENETRATING == 0);
-        let approaching = approaching_mask::<N>(st);
+        let valid = in_batch & (!st.has(Status::PENETRATING));
+        let approaching = st.approaching_mask::<N>();
         let impacting = valid & (approaching != 0);
-        let active = active_mask::<N>(st);
+        let active = st.active_mask::<N>();
         d.impacting[s] = w01(impacting);
         d.active[s] = active;
         for k in 0..BlockCounts::FLAGS.len() {
-            n.flags[k] += (in_batch & (st & BlockCounts::FLAGS[k] != 0)) as u32;
+            n.flags[k] += (in_batch & st.has(BlockCounts::FLAGS[k])) as u32;
         }
         n.impacts += impacting as u32;
         // Samples per active set: each valid lane adds 1 to its set's byte
@@ -194,13 +191,13 @@ pub(crate) struct BlockCounts {
 }
 
 impl BlockCounts {
-    const FLAGS: [u32; 6] = [
-        ENERGY_GAIN,
-        DEGENERATE,
-        JAMMED,
-        UNSOLVED,
-        RECOMPUTED,
-        PENETRATING,
+    const FLAGS: [Status; 6] = [
+        Status::ENERGY_GAIN,
+        Status::DEGENERATE,
+        Status::JAMMED,
+        Status::UNSOLVED,
+        Status::RECOMPUTED,
+        Status::PENETRATING,
     ];
 }
 
@@ -391,7 +388,7 @@ fn block_stats_lanes<T: Real, const N: usize>(
                 both += (d.mask[s] > T::ZERO) as u32;
             }
             let p = &mut acc.pairs[li - 1];
-            let gains = |o: &LawOut<T, N>, s: usize| o.status[s] & ENERGY_GAIN != 0;
+            let gains = |o: &LawOut<T, N>, s: usize| o.status[s].has(Status::ENERGY_GAIN);
             for s in 0..count {
                 let (this, base) = (gains(out, s), gains(&outs[0], s));
                 p.energy_gain_only += (this && !base) as u64;
@@ -533,20 +530,20 @@ pub(crate) fn record_friction<T: Real, const N: usize>(
     let mut sliding = [[T::ZERO; BLOCK]; N];
     for s in 0..count {
         let st = out.status[s];
-        if st & PENETRATING != 0 {
+        if st.has(Status::PENETRATING) {
             continue;
         }
-        fr.ambiguous += (st & AMBIGUOUS != 0) as u64;
-        fr.unconverged += (st & UNCONVERGED != 0) as u64;
-        let any = active_mask::<N>(st) != 0;
+        fr.ambiguous += (st.has(Status::AMBIGUOUS)) as u64;
+        fr.unconverged += (st.has(Status::UNCONVERGED)) as u64;
+        let any = st.active_mask::<N>() != 0;
         impacting[s] = w01(any);
         for i in 0..N {
-            let on = st & active_bit(i) != 0;
+            let on = st.has(Status::active(i));
             active[i][s] = w01(on);
             tangential[i][s] = select(any, out.tangential[i][s], T::ZERO);
             sliding[i][s] = select(on, out.sliding[i][s], T::ZERO);
             fr.active[i] += on as u64;
-            fr.sticking[i] += (st & sticking_bit(i) != 0) as u64;
+            fr.sticking[i] += (st.has(Status::sticking(i))) as u64;
         }
     }
     for i in 0..N {

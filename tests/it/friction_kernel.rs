@@ -11,7 +11,11 @@ use crate::support;
 use glam::{DMat3, DVec3};
 use impactmc::config::{Overrides, Scene};
 use impactmc::engine::evaluate_samples;
-use impactmc::kernel::{ENERGY_GAIN, RECOMPUTED, STICKING_SHIFT};
+use impactmc::kernel::Status;
+
+/// Contact i's sticking bit is bit 16 + i of the status (the reference's
+/// layout).
+const STICKING_SHIFT: u32 = 16;
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use support::rough_scene;
 
@@ -84,7 +88,7 @@ fn compare(scene: &Scene, law: Law, first: u64, count: usize) -> Worst {
         assert!(err.is_finite(), "sample {}: {got:?}", got.index);
         w.state = w.state.max(err);
         assert_eq!(
-            got.status & ENERGY_GAIN != 0,
+            got.status.has(Status::ENERGY_GAIN),
             want.flags.energy_gain,
             "sample {} energy_gain ({})",
             got.index,
@@ -102,11 +106,11 @@ fn compare(scene: &Scene, law: Law, first: u64, count: usize) -> Worst {
                     .sliding
                     .max((got.sliding[i] - ct.sliding_after).abs() / scale);
                 let want_stuck = ct.sliding_after <= stuck_at;
-                let got_stuck = got.status & (1 << (STICKING_SHIFT + i as u32)) != 0;
+                let got_stuck = got.status.bits() & (1 << (STICKING_SHIFT + i as u32)) != 0;
                 w.sticking_differs += (want_stuck != got_stuck) as usize;
             }
         }
-        w.recomputed += (got.status & RECOMPUTED != 0) as usize;
+        w.recomputed += (got.status.has(Status::RECOMPUTED)) as usize;
         w.samples += 1;
     }
     w
@@ -182,7 +186,7 @@ fn f32_friction_kernel_matches_the_reference() {
 #[test]
 fn per_sample_rows_carry_the_friction_columns() {
     use arrow_array::types::{Float32Type, UInt8Type};
-    use impactmc::kernel::{AMBIGUOUS, UNCONVERGED};
+    use impactmc::kernel::Status;
     let dir = support::tmpdir("friction-per-sample");
     let out = dir.join("out");
     let status = support::bin()
@@ -217,10 +221,11 @@ fn per_sample_rows_carry_the_friction_columns() {
             assert_eq!(sliding[k] as f64, o.sliding[0], "{l} sample {k}");
             assert_eq!(
                 sticking[k] as u32,
-                (o.status >> STICKING_SHIFT) & 1,
+                (o.status.bits() >> STICKING_SHIFT) & 1,
                 "{l} sample {k}"
             );
-            let f = (o.status & AMBIGUOUS != 0) as u8 | ((o.status & UNCONVERGED != 0) as u8) << 1;
+            let f = (o.status.has(Status::AMBIGUOUS)) as u8
+                | ((o.status.has(Status::UNCONVERGED)) as u8) << 1;
             assert_eq!(flags[k], f, "{l} sample {k}");
             sticking_seen += sticking[k] as usize;
             // A sticking contact does not slide; a sliding one has friction.

@@ -7,6 +7,7 @@ use crate::support;
 use glam::{DMat3, DVec3};
 use impactmc::config::Scene;
 use impactmc::engine::evaluate_samples;
+use impactmc::kernel::Status;
 use impactmc::physics::{solve_impact, Law, Pose, State};
 use impactmc::sampler::Sampler;
 
@@ -90,7 +91,7 @@ fn worst_error(scene: &Scene, law: Law, first: u64, count: usize) -> (f64, usize
             "sample {}: non-finite result {got:?}",
             got.index
         );
-        let kernel_gain = got.status & impactmc::kernel::ENERGY_GAIN != 0;
+        let kernel_gain = got.status.has(Status::ENERGY_GAIN);
         assert_eq!(
             kernel_gain,
             want.flags.energy_gain,
@@ -99,7 +100,7 @@ fn worst_error(scene: &Scene, law: Law, first: u64, count: usize) -> (f64, usize
             law.name()
         );
         worst = worst.max(err);
-        recomputed += (got.status & impactmc::kernel::RECOMPUTED != 0) as usize;
+        recomputed += (got.status.has(Status::RECOMPUTED)) as usize;
     }
     (worst, recomputed)
 }

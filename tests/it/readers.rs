@@ -364,12 +364,14 @@ fn python_readers_read_back_exactly_what_the_run_computed() {
         put(
             format!("active_{name}"),
             "uint8",
-            outs.iter().map(|o| json!((o.status >> 4) & 7)).collect(),
+            outs.iter()
+                .map(|o| json!((o.status.bits() >> 4) & 7))
+                .collect(),
         );
         put(
             format!("flags_{name}"),
             "uint16",
-            outs.iter().map(|o| json!(o.status)).collect(),
+            outs.iter().map(|o| json!(o.status.bits())).collect(),
         );
     }
     let expected = json!({"columns": cols, "rotation": rotation, "tolerance": 1e-6});

@@ -3,7 +3,7 @@
 
 use super::flight::Flight;
 use crate::config::{DropBox, Scene};
-use crate::kernel::{LawOut, Strike};
+use crate::kernel::{LawOut, Status, Strike};
 use crate::lanes::dispatch::BLOCK;
 use crate::physics::{Ellipsoid, State};
 use crate::sampler::Sampler;
@@ -33,8 +33,8 @@ pub(crate) struct Firsts<'a, const N: usize> {
 }
 
 impl<const N: usize> Firsts<'_, N> {
-    /// Lane `s`: no impact (`status` 0, or UNSOLVED), its values unread.
-    pub(super) fn none(&mut self, s: usize, status: u32) {
+    /// Lane `s`: no impact (`status` 0, or Status::UNSOLVED), its values unread.
+    pub(super) fn none(&mut self, s: usize, status: Status) {
         self.out.status[s] = status;
     }
 
@@ -45,7 +45,7 @@ impl<const N: usize> Firsts<'_, N> {
         body: &Ellipsoid,
         before: &State,
         o: &Strike,
-        status: u32,
+        status: Status,
     ) {
         self.energy[s] = o.energy_before;
         for i in 0..N {

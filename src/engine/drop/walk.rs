@@ -5,7 +5,7 @@
 //! of [`super::wave`] or the reference); what a sample contributes, and in
 //! which order, depends only on its index.
 
-use crate::kernel::{Strike, DEGENERATE, ENERGY_GAIN, JAMMED, UNSOLVED};
+use crate::kernel::{Status, Strike};
 use crate::output::samples::SampleRows;
 use crate::physics::{quaternion_from_matrix, Motion, State};
 use crate::stats::accumulators::LawAcc;
@@ -127,18 +127,14 @@ impl Log {
     ) {
         acc.samples += 1;
         match &self.first {
-            First::None => first.none(s, 0),
-            First::Unsolved => first.none(s, crate::kernel::UNSOLVED),
+            First::None => first.none(s, Status::NONE),
+            First::Unsolved => first.none(s, Status::UNSOLVED),
             First::Impact {
                 strike,
                 before,
                 how,
             } => {
-                let status = if how.recomputed {
-                    crate::kernel::RECOMPUTED
-                } else {
-                    0
-                };
+                let status = Status::when(how.recomputed, Status::RECOMPUTED);
                 first.impact(s, body, before, strike, status);
                 if let Some(fr) = la.friction.as_mut() {
                     fr.coupled_fallback += how.coupled_fallback as u64;
@@ -371,14 +367,9 @@ fn push_drop(rows: &mut SampleRows, r: &DropRow) {
             put(v);
         }
     }
-    let flags = [
-        (o.flags.energy_gain, ENERGY_GAIN),
-        (o.flags.degenerate, DEGENERATE),
-        (o.flags.jammed, JAMMED),
-        (o.flags.unsolved, UNSOLVED),
-    ]
-    .iter()
-    .fold(0, |s, &(on, bit)| if on { s | bit } else { s });
+    // The drop reference raises energy_gain, degenerate, jammed and
+    // unsolved; their bits end at bit 12.
+    let flags = o.flags.to_bits().bits();
     // Bounces are at most 10,000, planes at most six, flags end at bit 12.
     let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
     for (col, v) in rows.ints.iter_mut().zip(ints) {

@@ -30,9 +30,8 @@ use glam::{DMat3, DQuat, DVec3};
 use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork};
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::kernel::{
-    approaching_bit, frame, friction_impulses, geometry, impulses, post, sticking_bit, Consts,
-    ContactRecord, Frame, Geometry, LawOut, Sweep, AMBIGUOUS, DEGENERATE, ENERGY_GAIN, JAMMED,
-    RECOMPUTE, UNCONVERGED, UNSOLVED,
+    frame, friction_impulses, geometry, impulses, post, Consts, ContactRecord, Frame, Geometry,
+    LawOut, Status, Sweep,
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
@@ -530,7 +529,7 @@ impl DropCtx<'_> {
             }
             for (s, p) in chunk.iter().enumerate() {
                 let st = k.out.status[s];
-                if st & RECOMPUTE != 0 {
+                if st.has(Status::NEEDS_REFERENCE) {
                     out.apply(p, self.reference_strike(p, out.tolerance).as_ref(), true);
                 } else {
                     out.apply(p, Some(&self.strike_of(k, s, st, &p.motion)), false);
@@ -547,7 +546,7 @@ impl DropCtx<'_> {
         &self,
         k: &SetKernel<T, K>,
         s: usize,
-        st: u32,
+        st: Status,
         m: &Motion,
     ) -> Strike {
         let after = State {
@@ -557,7 +556,7 @@ impl DropCtx<'_> {
         let mut strike = self.strike_at(m, &after);
         for (j, &i) in k.planes.iter().enumerate() {
             let c = &mut strike.contacts[i];
-            c.approaching = st & approaching_bit(j) != 0;
+            c.approaching = st.has(Status::approaching(j));
             c.impulse = k.out.lambda[j][s].to_f64();
             c.tangential = if k.frictional {
                 k.out.tangential[j][s].to_f64()
@@ -568,18 +567,11 @@ impl DropCtx<'_> {
             // (friction.md's threshold is 1e-9 of the velocity scale, below
             // f32's rounding of the state after): a sticking contact's
             // sliding is zero, not the rounding of that state.
-            if k.frictional && st & sticking_bit(j) != 0 {
+            if k.frictional && st.has(Status::sticking(j)) {
                 c.sliding_after = 0.0;
             }
         }
-        strike.flags = Flags {
-            energy_gain: st & ENERGY_GAIN != 0,
-            degenerate: st & DEGENERATE != 0,
-            jammed: st & JAMMED != 0,
-            unsolved: st & UNSOLVED != 0,
-            ambiguous: st & AMBIGUOUS != 0,
-            unconverged: st & UNCONVERGED != 0,
-        };
+        strike.flags = Flags::from_bits(st);
         strike
     }
 

@@ -10,7 +10,7 @@ use crate::kernel::geometry::dot3;
 /// The contact frames of a block, and the geometry the statistics read
 /// (normal velocities, T⁻, approach bits; in f32 grazing lanes flagged as
 /// in [`geometry`]).
-use crate::kernel::{bit, Consts, Geometry, APPROACHING_SHIFT, RECOMPUTE};
+use crate::kernel::{Consts, Geometry, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::sampler::Inputs;
@@ -27,7 +27,7 @@ pub fn frame<T: Real, const N: usize>(
         let v = [x.v[0][s], x.v[1][s], x.v[2][s]];
         let w = [x.w[0][s], x.w[1][s], x.w[2][s]];
         let vscale = c.length.mul_add(dot3(w, w).sqrt(), dot3(v, v).sqrt());
-        let mut status = 0u32;
+        let mut status = Status::NONE;
         for i in 0..N {
             let dirs = [c.normal[i], c.fr.tangent[i][0], c.fr.tangent[i][1]];
             // Aᵀd for each direction: the body-frame directions.
@@ -74,8 +74,11 @@ pub fn frame<T: Real, const N: usize>(
             fr.b3[i][s] = b3(blocks, c.fr.mu[i], c.fr.b3_bound);
             let vn = fr.c0[i][0][s];
             geo.vn[i][s] = vn;
-            status |= ((vn < T::ZERO) as u32) << (APPROACHING_SHIFT + i as u32);
-            status |= bit(f32_lanes && vn.abs() < c.graze * vscale, RECOMPUTE);
+            status |= Status::when(vn < T::ZERO, Status::approaching(i));
+            status |= Status::when(
+                f32_lanes && vn.abs() < c.graze * vscale,
+                Status::NEEDS_REFERENCE,
+            );
         }
         fr.vscale[s] = vscale;
         geo.t_before[s] = T::HALF

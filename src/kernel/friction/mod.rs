@@ -25,7 +25,7 @@
 //! decision on the way is clear of its boundary by a margin above the lane
 //! type's rounding; otherwise (several valid cases: `ambiguous`; none:
 //! `unsolved`; a decision within its margin; Gauss–Seidel not converged)
-//! it is flagged [`RECOMPUTE`] and solved by the f64 reference.
+//! it is flagged [`Status::NEEDS_REFERENCE`] and solved by the f64 reference.
 //!
 //! `newton` with several contacts sweeps each lane to its own stopping
 //! rule; the lanes still sweeping are moved to the front of the block, so

@@ -10,10 +10,8 @@ use crate::kernel::geometry::dot3;
 /// Post-impact velocities, normal velocities, energy, tangential impulses
 /// and sliding speeds of a frictional block (`limit`: the impulses are
 /// Newton's converged limit); lanes the solve could not vouch for are
-/// flagged [`RECOMPUTE`].
-use crate::kernel::{
-    bit, Consts, Geometry, LawOut, ACTIVE_SHIFT, ENERGY_GAIN, RECOMPUTE, STICKING_SHIFT,
-};
+/// flagged [`Status::NEEDS_REFERENCE`].
+use crate::kernel::{Consts, Geometry, LawOut, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
 use crate::sampler::Inputs;
@@ -76,10 +74,10 @@ pub(super) fn friction_post<T: Real, const N: usize>(
                 .mul_add(sw.p[i][1][s], sw.p[i][2][s] * sw.p[i][2][s])
                 .sqrt();
             out.sliding[i][s] = sliding;
-            status |= ((lambda > T::ZERO) as u32) << (ACTIVE_SHIFT + i as u32);
-            status |= bit(
+            status |= Status::when(lambda > T::ZERO, Status::active(i));
+            status |= Status::when(
                 active & (at_rest | (speed <= stuck_at)),
-                1 << (STICKING_SHIFT + i as u32),
+                Status::sticking(i),
             );
         }
         // ΔT = ½ Σ P_i·(c⁻_i + c⁺_i), exact for any impulses (friction.md).
@@ -90,10 +88,10 @@ pub(super) fn friction_post<T: Real, const N: usize>(
             out.w_after[k][s] = w[k];
         }
         out.t_after[s] = t1;
-        status |= bit(gained, ENERGY_GAIN)
-            | bit(
+        status |= Status::when(gained, Status::ENERGY_GAIN)
+            | Status::when(
                 unsure | unsure_stick | unconverged[s] | (sw.bits[s] & UNSURE != 0),
-                RECOMPUTE,
+                Status::NEEDS_REFERENCE,
             );
         out.status[s] = status;
     }

@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
 use crate::kernel::friction::state::{
-    Frame, FrictionConsts, Solve, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
+    bit, Frame, FrictionConsts, Solve, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
 };
 use crate::kernel::geometry::dot3;
 /// The slide case's trigonometric polynomials (friction.md, case 3), with
@@ -20,7 +20,7 @@ use crate::kernel::geometry::dot3;
 ///
 /// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
 /// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
-use crate::kernel::{bit, Consts};
+use crate::kernel::Consts;
 use crate::lanes::{select, Real};
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slide<T> {

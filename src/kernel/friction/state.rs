@@ -15,6 +15,13 @@ pub(super) const GRID: usize = 32;
 pub(super) const STICK_SHIFT: u32 = 0;
 /// Some visit of the lane could not be certified.
 pub(super) const UNSURE: u32 = 1 << 8;
+
+/// `flag` when `c` holds, else 0, without a branch (for the sweep's own
+/// bits, which are not a [`crate::kernel::Status`]).
+#[inline(always)]
+pub(super) fn bit(c: bool, flag: u32) -> u32 {
+    (c as u32) * flag
+}
 /// Contact i's velocity changed after its last visit (bit
 /// `MOVED_SHIFT + i`): another contact's impulse moved since.
 pub(super) const MOVED_SHIFT: u32 = 12;
