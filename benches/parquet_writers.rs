@@ -15,7 +15,8 @@ use arrow_schema::{DataType, Field, Schema};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use impactmc::config::{load_scene, Overrides};
 use impactmc::engine::{run_with_samples, RunOptions};
-use impactmc::output::samples::{Floats, RowLayout, SampleRows};
+use impactmc::output::columns::RowLayout;
+use impactmc::output::samples::{Floats, SampleRows};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::file::properties::WriterProperties;
@@ -75,7 +76,7 @@ fn rows() -> Rows {
         }
     }
     Rows {
-        float_names: fnames,
+        float_names: fnames.into_iter().map(|c| c.name).collect(),
         floats,
         int_names: inames.into_iter().map(|c| c.name).collect(),
         ints,

@@ -14,6 +14,7 @@ use crate::kernel::{
 };
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
+use crate::output::columns::Field;
 use crate::output::samples::SampleRows;
 use crate::physics::{quaternion_from_matrix, Law};
 use crate::sampler::{Inputs, Sampler};
@@ -205,14 +206,7 @@ pub(crate) fn run_block<
         acc,
     );
     if let Some(rows) = rows {
-        push_rows(
-            &work.inputs,
-            &work.geo,
-            &work.outs,
-            (first, count),
-            scene.effects().friction,
-            rows,
-        );
+        push_rows(&work.inputs, &work.geo, &work.outs, (first, count), rows);
     }
 }
 
@@ -270,76 +264,75 @@ pub(crate) fn fallback<T: Real, const N: usize>(
     }
 }
 
-/// Appends a block's rows (after recomputation) in the order of
-/// [`RowLayout`](crate::output::samples::RowLayout), column by column (`friction`: the scene's friction
-/// columns are there).
+/// Appends a block's rows (after recomputation): each column of the
+/// [`RowLayout`](crate::output::columns::RowLayout) gets the lanes its
+/// [`Field`] names.
 pub(crate) fn push_rows<T: Real, const N: usize>(
     x: &Inputs<T>,
     geo: &Geometry<T, N>,
     outs: &[Box<LawOut<T, N>>],
     (first, count): (u64, usize),
-    friction: bool,
     rows: &mut SampleRows,
 ) {
     rows.index.extend(first..first + count as u64);
     // The orientation as a unit quaternion with w ≥ 0, from the matrix the
     // kernel used.
     let mut q = [[0.0f64; 4]; BLOCK];
-    let quaternion = (0..4).any(|k| rows.is_filled(k));
+    let quaternion = rows.fills_any(|f| matches!(f, Field::Quaternion(_)));
     for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
         let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
         let r = quaternion_from_matrix(a);
         *q = [r.w, r.x, r.y, r.z];
     }
-    let mut cols = rows.columns();
     fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
         c[..count].iter().map(|v| v.to_f64())
     }
-    for c in 0..4 {
-        cols.put(q[..count].iter().map(|q| q[c]));
-    }
-    for c in x.v.iter().chain(&x.w) {
-        cols.put(lane(c, count));
-    }
-    cols.put(lane(&geo.t_before, count));
-    for c in &geo.vn {
-        cols.put(lane(c, count));
-    }
-    for out in outs {
-        cols.put(lane(&out.t_after, count));
-        cols.put(
-            lane(&out.t_after, count)
-                .zip(lane(&geo.t_before, count))
-                .map(|(t1, t0)| t1 / t0),
-        );
-        for c in out.v_after.iter().chain(&out.w_after) {
-            cols.put(lane(c, count));
-        }
-        for c in out.lambda.iter().chain(&out.vn_after) {
-            cols.put(lane(c, count));
-        }
-        if friction {
-            for c in out.tangential.iter().chain(&out.sliding) {
-                cols.put(lane(c, count));
+    for (k, field) in rows.float_fields().iter().enumerate() {
+        match *field {
+            Field::Quaternion(c) => rows.put(k, q[..count].iter().map(|q| q[c])),
+            Field::Velocity(c) => rows.put(k, lane(&x.v[c], count)),
+            Field::Omega(c) => rows.put(k, lane(&x.w[c], count)),
+            Field::EnergyBefore => rows.put(k, lane(&geo.t_before, count)),
+            Field::VnBefore { plane } => rows.put(k, lane(&geo.vn[plane], count)),
+            Field::EnergyAfter { law } => rows.put(k, lane(&outs[law].t_after, count)),
+            Field::EnergyRatio { law } => rows.put(
+                k,
+                lane(&outs[law].t_after, count)
+                    .zip(lane(&geo.t_before, count))
+                    .map(|(t1, t0)| t1 / t0),
+            ),
+            Field::VelocityAfter { law, axis } => {
+                rows.put(k, lane(&outs[law].v_after[axis], count))
             }
+            Field::OmegaAfter { law, axis } => rows.put(k, lane(&outs[law].w_after[axis], count)),
+            Field::Impulse { law, plane } => rows.put(k, lane(&outs[law].lambda[plane], count)),
+            Field::VnAfter { law, plane } => rows.put(k, lane(&outs[law].vn_after[plane], count)),
+            Field::TangentialImpulse { law, plane } => {
+                rows.put(k, lane(&outs[law].tangential[plane], count))
+            }
+            Field::SlidingSpeed { law, plane } => {
+                rows.put(k, lane(&outs[law].sliding[plane], count))
+            }
+            f => unreachable!("{f:?} is not a contact row's float column"),
         }
     }
-    let mut ints = rows.ints.iter_mut();
-    for out in outs {
-        let status = &out.status[..count];
-        let active = ints.next().expect("column count");
-        active.extend(status.iter().map(|&st| st.active_mask::<N>() as u16));
-        // Bits 0–14 (a u16 holds them); the friction bits above have their
-        // own columns.
-        let flags = ints.next().expect("column count");
-        flags.extend(status.iter().map(|&st| st.bits() as u16));
-        if friction {
-            let sticking = ints.next().expect("column count");
-            sticking.extend(status.iter().map(|&st| st.sticking_mask::<N>() as u16));
-            let friction_flags = ints.next().expect("column count");
-            friction_flags.extend(status.iter().map(|&st| {
-                (st.has(Status::AMBIGUOUS)) as u16 | (((st.has(Status::UNCONVERGED)) as u16) << 1)
-            }));
+    for (k, field) in rows.int_fields().iter().enumerate() {
+        let status = |law: usize| outs[law].status[..count].iter();
+        let column = &mut rows.ints[k];
+        match *field {
+            Field::Active { law } => {
+                column.extend(status(law).map(|st| st.active_mask::<N>() as u16))
+            }
+            // Bits 0–14 (a u16 holds them); the friction bits above have
+            // their own columns.
+            Field::Flags { law } => column.extend(status(law).map(|st| st.bits() as u16)),
+            Field::Sticking { law } => {
+                column.extend(status(law).map(|st| st.sticking_mask::<N>() as u16))
+            }
+            Field::FrictionFlags { law } => column.extend(status(law).map(|st| {
+                st.has(Status::AMBIGUOUS) as u16 | (st.has(Status::UNCONVERGED) as u16) << 1
+            })),
+            f => unreachable!("{f:?} is not a contact row's integer column"),
         }
     }
 }

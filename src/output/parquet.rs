@@ -43,8 +43,9 @@ use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
 use rayon::prelude::*;
 
+use super::columns::Kind;
 use super::direct::DirectFile;
-use super::samples::{unit_of, Floats, IntWidth, SampleRows, Selection};
+use super::samples::{Floats, SampleRows, Selection};
 use crate::config::Precision;
 
 /// Rows per Parquet row group.
@@ -204,7 +205,7 @@ impl SamplesWriter {
         opts: WriteOptions,
     ) -> Result<Self, ParquetError> {
         let schema = Arc::new(schema_of(&selection, opts.sweep));
-        let props = Arc::new(properties(&schema, opts.compression));
+        let props = Arc::new(properties(&schema, &selection, opts.compression));
         let parquet = ArrowSchemaConverter::new()
             .with_coerce_types(props.coerce_types())
             .convert(&schema)?;
@@ -491,9 +492,10 @@ fn arrays(selection: &Selection, point: Option<u32>, mut b: SampleRows) -> Vec<A
     }
     for (i, c) in selection.ints() {
         let v = std::mem::take(&mut b.ints[i]);
-        cols.push(match c.width {
-            IntWidth::U8 => Arc::new(UInt8Array::from_iter_values(v.iter().map(|&x| x as u8))),
-            IntWidth::U16 => Arc::new(UInt16Array::from(v)),
+        cols.push(match c.kind {
+            Kind::U8 => Arc::new(UInt8Array::from_iter_values(v.iter().map(|&x| x as u8))),
+            Kind::U16 => Arc::new(UInt16Array::from(v)),
+            Kind::Float => unreachable!("an integer column"),
         });
     }
     cols
@@ -594,13 +596,14 @@ fn schema_of(selection: &Selection, sweep: bool) -> Schema {
         Precision::F32 => DataType::Float32,
         Precision::F64 => DataType::Float64,
     };
-    for (_, name) in selection.floats() {
-        fields.push(Field::new(name, float.clone(), false));
+    for (_, c) in selection.floats() {
+        fields.push(Field::new(&c.name, float.clone(), false));
     }
     for (_, c) in selection.ints() {
-        let t = match c.width {
-            IntWidth::U8 => DataType::UInt8,
-            IntWidth::U16 => DataType::UInt16,
+        let t = match c.kind {
+            Kind::U8 => DataType::UInt8,
+            Kind::U16 => DataType::UInt16,
+            Kind::Float => unreachable!("an integer column"),
         };
         fields.push(Field::new(&c.name, t, false));
     }
@@ -609,12 +612,14 @@ fn schema_of(selection: &Selection, sweep: bool) -> Schema {
 
 /// Writer properties: the codec, per column its encoding, and key-value
 /// metadata: the schema version and the float columns' units.
-fn properties(schema: &Schema, compression: Compression) -> WriterProperties {
-    let units: serde_json::Map<String, serde_json::Value> = schema
-        .fields()
-        .iter()
-        .filter(|f| f.data_type().is_floating())
-        .map(|f| (f.name().clone(), unit_of(f.name()).into()))
+fn properties(
+    schema: &Schema,
+    selection: &Selection,
+    compression: Compression,
+) -> WriterProperties {
+    let units: serde_json::Map<String, serde_json::Value> = selection
+        .floats()
+        .map(|(_, c)| (c.name.clone(), c.unit.into()))
         .collect();
     let mut b = WriterProperties::builder()
         .set_compression(compression.codec())
@@ -652,18 +657,33 @@ fn properties(schema: &Schema, compression: Compression) -> WriterProperties {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::samples::{IntColumn, IntWidth};
+    use crate::output::columns::{Column, Field, RowLayout};
+
+    fn layout() -> RowLayout {
+        let column = |name: &str, kind, field| Column {
+            name: name.into(),
+            kind,
+            unit: "",
+            field,
+        };
+        RowLayout {
+            floats: vec![
+                column("a", Kind::Float, Field::Time),
+                column("b", Kind::Float, Field::Interval),
+            ],
+            ints: vec![column("flags", Kind::U16, Field::Bounce)],
+            precision: Precision::F32,
+            laws: Vec::new(),
+        }
+    }
 
     fn selection() -> Selection {
-        let ints = vec![IntColumn {
-            name: "flags".into(),
-            width: IntWidth::U16,
-        }];
-        Selection::new(vec!["a".into(), "b".into()], ints, Precision::F32, None).unwrap()
+        let l = layout();
+        Selection::new(l.floats, l.ints, Precision::F32, None).unwrap()
     }
 
     fn rows(first: u64, n: usize) -> SampleRows {
-        let mut r = SampleRows::new(Precision::F32, 2, 1);
+        let mut r = SampleRows::of_layout(&layout());
         r.index.extend(first..first + n as u64);
         r.push_test_columns(n);
         r

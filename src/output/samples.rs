@@ -3,37 +3,17 @@
 //! f32 values, integers their narrowest exact type). The batch bodies fill
 //! them (`engine`'s contact blocks and drop walks). [`super::parquet`] writes them.
 
-use crate::config::{Placement, Precision, Sampling, Scene};
+use std::sync::Arc;
 
-/// The width of an integer column: every value the column can take fits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum IntWidth {
-    U8,
-    U16,
-}
-
-/// An integer column after `sample`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct IntColumn {
-    pub name: String,
-    pub width: IntWidth,
-}
-
-impl IntColumn {
-    fn new(name: impl Into<String>, width: IntWidth) -> Self {
-        Self {
-            name: name.into(),
-            width,
-        }
-    }
-}
+use super::columns::{Column, Field, RowLayout};
+use crate::config::{Precision, Sampling, Scene};
 
 /// Which per-sample columns to write.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Selection {
-    /// All float column names and all integer columns, in engine order.
-    floats: Vec<String>,
-    ints: Vec<IntColumn>,
+    /// All float and all integer columns, in row order.
+    floats: Vec<Column>,
+    ints: Vec<Column>,
     keep_float: Vec<bool>,
     keep_int: Vec<bool>,
     /// A drop scene's law names, for its `law` column.
@@ -50,8 +30,8 @@ impl Selection {
     /// (`sample`, the key, is always kept). Unknown names are an error that
     /// lists the available columns.
     pub fn new(
-        floats: Vec<String>,
-        ints: Vec<IntColumn>,
+        floats: Vec<Column>,
+        ints: Vec<Column>,
         precision: Precision,
         wanted: Option<&[String]>,
     ) -> Result<Self, String> {
@@ -62,13 +42,9 @@ impl Selection {
         };
         if let Some(w) = wanted {
             for name in w {
-                if name != "sample"
-                    && !floats.contains(name)
-                    && !ints.iter().any(|c| &c.name == name)
-                {
+                if name != "sample" && !floats.iter().chain(&ints).any(|c| &c.name == name) {
                     let mut all = vec!["sample".to_string()];
-                    all.extend(floats.iter().cloned());
-                    all.extend(ints.iter().map(|c| c.name.clone()));
+                    all.extend(floats.iter().chain(&ints).map(|c| c.name.clone()));
                     return Err(format!(
                         "unknown per-sample column {name:?}; available: {}",
                         all.join(", ")
@@ -77,7 +53,7 @@ impl Selection {
             }
         }
         Ok(Self {
-            keep_float: keep(&mut floats.iter()),
+            keep_float: keep(&mut floats.iter().map(|c| &c.name)),
             keep_int: keep(&mut ints.iter().map(|c| &c.name)),
             floats,
             ints,
@@ -115,18 +91,18 @@ impl Selection {
         Ok(s)
     }
 
-    /// The kept float columns: (index in the rows, name).
-    pub fn floats(&self) -> impl Iterator<Item = (usize, &str)> {
+    /// The kept float columns: (index in the rows, column).
+    pub fn floats(&self) -> impl Iterator<Item = (usize, &Column)> {
         self.floats
             .iter()
             .zip(&self.keep_float)
             .enumerate()
             .filter(|(_, (_, k))| **k)
-            .map(|(i, (n, _))| (i, n.as_str()))
+            .map(|(i, (c, _))| (i, c))
     }
 
     /// The kept integer columns: (index in the rows, column).
-    pub fn ints(&self) -> impl Iterator<Item = (usize, &IntColumn)> {
+    pub fn ints(&self) -> impl Iterator<Item = (usize, &Column)> {
         self.ints
             .iter()
             .zip(&self.keep_int)
@@ -158,71 +134,6 @@ impl Selection {
     }
 }
 
-/// The shape of a scene's per-sample rows, by the batch body its placement
-/// chooses: at contact one row per sample with columns per law, in the
-/// kernel's precision; in a drop one row per impact keyed by `sample`,
-/// `law` and `bounce`, in f64 (the drop body runs the f64 reference).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RowLayout {
-    /// Float column names and integer columns after the keys, in row order.
-    pub floats: Vec<String>,
-    pub ints: Vec<IntColumn>,
-    /// The float columns' type.
-    pub precision: Precision,
-    /// Rows per law: the names the `law` key takes (empty: one row per
-    /// sample).
-    pub laws: Vec<String>,
-}
-
-impl RowLayout {
-    pub fn of(scene: &Scene) -> Self {
-        match scene.placement() {
-            Placement::Contact(_) => {
-                let (floats, ints) = contact_columns(scene);
-                Self {
-                    floats,
-                    ints,
-                    precision: scene.precision(),
-                    laws: Vec::new(),
-                }
-            }
-            Placement::Drop(_) => {
-                let (floats, ints) = drop_columns(scene);
-                Self {
-                    floats,
-                    ints,
-                    precision: Precision::F64,
-                    laws: scene.laws().iter().map(|l| l.name()).collect(),
-                }
-            }
-        }
-    }
-}
-
-/// The unit of a per-sample float column, from its name (the key-value
-/// metadata `impactmc.units` of `samples.parquet`).
-pub fn unit_of(column: &str) -> &'static str {
-    const UNITS: [(&str, &str); 13] = [
-        ("tangential_impulse_", "N·s"),
-        ("sliding_speed_", "m/s"),
-        ("q_", "1"),
-        ("energy_ratio", "1"),
-        ("energy_", "J"),
-        ("omega_", "rad/s"),
-        ("vn_", "m/s"),
-        ("v_", "m/s"),
-        ("impulse_", "N·s"),
-        ("time", "s"),
-        ("interval", "s"),
-        ("centre_", "m"),
-        ("distance_", "m"),
-    ];
-    UNITS
-        .iter()
-        .find(|(prefix, _)| column.starts_with(prefix))
-        .map_or("", |(_, unit)| unit)
-}
-
 /// Float columns at one precision.
 #[derive(Debug, Clone)]
 pub enum Floats {
@@ -249,25 +160,6 @@ impl Floats {
     }
 }
 
-/// Fills float columns one after the other, in the order of the
-/// [`RowLayout`] (those not filled are skipped, their values never
-/// computed): what a batch body writes its rows with.
-pub struct Columns<'a> {
-    floats: &'a mut Floats,
-    filled: &'a [bool],
-    next: usize,
-}
-
-impl Columns<'_> {
-    /// Appends `values` to the next float column.
-    pub fn put(&mut self, values: impl Iterator<Item = f64>) {
-        if self.filled[self.next] {
-            self.floats.extend(self.next, values);
-        }
-        self.next += 1;
-    }
-}
-
 /// Per-sample rows of one batch, column-major, in sample order (the columns
 /// of the [`RowLayout`]).
 #[derive(Debug, Clone)]
@@ -277,21 +169,27 @@ pub struct SampleRows {
     /// a contact scene.
     pub law: Vec<u32>,
     pub floats: Floats,
-    /// Integer columns; each value fits its column's [`IntWidth`].
+    /// Integer columns; each value fits its column's [`Kind`](super::columns::Kind).
     pub ints: Vec<Vec<u16>>,
     /// Which float columns are filled (the others stay empty: a selection
     /// that leaves them out costs nothing for them).
-    filled: std::sync::Arc<[bool]>,
+    filled: Arc<[bool]>,
+    /// What each float and each integer column holds, from the layout.
+    float_fields: Arc<[Field]>,
+    int_fields: Arc<[Field]>,
 }
 
 impl SampleRows {
-    pub fn new(precision: Precision, floats: usize, ints: usize) -> Self {
+    /// Empty rows for the columns of a layout.
+    pub fn of_layout(l: &RowLayout) -> Self {
         Self {
             index: Vec::new(),
             law: Vec::new(),
-            floats: Floats::new(precision, floats),
-            ints: vec![Vec::new(); ints],
-            filled: vec![true; floats].into(),
+            floats: Floats::new(l.precision, l.floats.len()),
+            ints: vec![Vec::new(); l.ints.len()],
+            filled: vec![true; l.floats.len()].into(),
+            float_fields: l.floats.iter().map(|c| c.field).collect(),
+            int_fields: l.ints.iter().map(|c| c.field).collect(),
         }
     }
 
@@ -304,8 +202,7 @@ impl SampleRows {
 
     /// Empty rows for a scene's columns.
     pub fn of_scene(scene: &Scene) -> Self {
-        let l = RowLayout::of(scene);
-        Self::new(l.precision, l.floats.len(), l.ints.len())
+        Self::of_layout(&RowLayout::of(scene))
     }
 
     /// Reserves room for `rows` more rows in every column (one allocation
@@ -330,18 +227,32 @@ impl SampleRows {
         self.index.len()
     }
 
-    /// The float columns, to be filled in order with [`Columns::put`].
-    pub fn columns(&mut self) -> Columns<'_> {
-        Columns {
-            floats: &mut self.floats,
-            filled: &self.filled,
-            next: 0,
+    /// What each float column holds, in row order: what a batch body
+    /// fills them with (see [`SampleRows::put`]).
+    pub fn float_fields(&self) -> Arc<[Field]> {
+        self.float_fields.clone()
+    }
+
+    /// What each integer column holds, in row order.
+    pub fn int_fields(&self) -> Arc<[Field]> {
+        self.int_fields.clone()
+    }
+
+    /// Appends `values` to float column `k`, if it is filled (otherwise the
+    /// values are never computed).
+    #[inline]
+    pub fn put(&mut self, k: usize, values: impl Iterator<Item = f64>) {
+        if self.filled[k] {
+            self.floats.extend(k, values);
         }
     }
 
-    /// Whether float column `k` is filled.
-    pub fn is_filled(&self, k: usize) -> bool {
-        self.filled[k]
+    /// Whether any of the float columns holding one of `fields` is filled.
+    pub fn fills_any(&self, fields: impl Fn(Field) -> bool) -> bool {
+        self.float_fields
+            .iter()
+            .zip(self.filled.iter())
+            .any(|(f, on)| *on && fields(*f))
     }
 
     pub fn is_empty(&self) -> bool {
@@ -363,116 +274,4 @@ impl SampleRows {
             c.extend((0..n).map(|i| (i % 7) as u16));
         }
     }
-}
-
-/// The per-sample columns after `sample` (u64): the float columns, then the
-/// integer columns. Units: m/s, rad/s, J, N·s; `active_LAW` (u8) is the
-/// active-set bitmask over the touching planes in scene order, `flags_LAW`
-/// (u16) the kernel status bits (see the reference). A scene with friction
-/// adds per law and touching plane `tangential_impulse_LAW_PLANE` (|f_i|,
-/// N·s) and `sliding_speed_LAW_PLANE` (|c⁺_t,i|, m/s), and per law
-/// `sticking_LAW` (u8, bit i: the i-th touching plane ended sticking) and
-/// `friction_flags_LAW` (u8: bit 0 ambiguous, bit 1 unconverged).
-fn contact_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
-    let planes: Vec<&str> = scene
-        .touching()
-        .iter()
-        .map(|&i| scene.planes()[i].name.as_str())
-        .collect();
-    let mut f: Vec<String> = [
-        "q_w",
-        "q_x",
-        "q_y",
-        "q_z",
-        "v_x",
-        "v_y",
-        "v_z",
-        "omega_x",
-        "omega_y",
-        "omega_z",
-        "energy_before",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    f.extend(planes.iter().map(|p| format!("vn_before_{p}")));
-    let mut ints = Vec::new();
-    let friction = scene.effects().friction;
-    for law in scene.laws() {
-        let l = law.name();
-        f.push(format!("energy_after_{l}"));
-        f.push(format!("energy_ratio_{l}"));
-        for c in ["x", "y", "z"] {
-            f.push(format!("v_after_{c}_{l}"));
-        }
-        for c in ["x", "y", "z"] {
-            f.push(format!("omega_after_{c}_{l}"));
-        }
-        f.extend(planes.iter().map(|p| format!("impulse_{l}_{p}")));
-        f.extend(planes.iter().map(|p| format!("vn_after_{l}_{p}")));
-        if friction {
-            f.extend(planes.iter().map(|p| format!("tangential_impulse_{l}_{p}")));
-            f.extend(planes.iter().map(|p| format!("sliding_speed_{l}_{p}")));
-        }
-        ints.push(IntColumn::new(format!("active_{l}"), IntWidth::U8));
-        ints.push(IntColumn::new(format!("flags_{l}"), IntWidth::U16));
-        if friction {
-            ints.push(IntColumn::new(format!("sticking_{l}"), IntWidth::U8));
-            ints.push(IntColumn::new(format!("friction_flags_{l}"), IntWidth::U8));
-        }
-    }
-    (f, ints)
-}
-
-/// A drop scene's per-impact columns after `sample` (u64) and `law` (str):
-/// the f64 columns, then the integer columns. At the moment of impact: `time`
-/// since release and `interval` since the previous impact (s), the centre
-/// (m), the orientation (unit quaternion body → world, w ≥ 0), v (world,
-/// m/s) and ω (body, rad/s) before and after, the energies (J), and per
-/// plane its distance (m), normal velocity before and after (m/s) and
-/// impulse (N·s). `bounce` (u16) counts impacts from 1, `planes` (u8) is the
-/// bitmask of the planes that took an impulse (scene order, at most six),
-/// `flags` (u16) the kernel's status bits for energy_gain, degenerate,
-/// jammed and unsolved.
-pub fn drop_columns(scene: &Scene) -> (Vec<String>, Vec<IntColumn>) {
-    let mut f: Vec<String> = [
-        "time",
-        "interval",
-        "centre_x",
-        "centre_y",
-        "centre_z",
-        "q_w",
-        "q_x",
-        "q_y",
-        "q_z",
-        "v_x",
-        "v_y",
-        "v_z",
-        "omega_x",
-        "omega_y",
-        "omega_z",
-        "energy_before",
-        "energy_after",
-        "energy_ratio",
-        "v_after_x",
-        "v_after_y",
-        "v_after_z",
-        "omega_after_x",
-        "omega_after_y",
-        "omega_after_z",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    for p in scene.planes() {
-        for c in ["distance", "vn_before", "vn_after", "impulse"] {
-            f.push(format!("{c}_{}", p.name));
-        }
-    }
-    let ints = vec![
-        IntColumn::new("bounce", IntWidth::U16),
-        IntColumn::new("planes", IntWidth::U8),
-        IntColumn::new("flags", IntWidth::U16),
-    ];
-    (f, ints)
 }

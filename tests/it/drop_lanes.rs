@@ -19,7 +19,7 @@ use impactmc::stats::accumulators::{RunAcc, Shape};
 use impactmc::stats::drops::Ending;
 
 /// One impact's row: the walk (sample, law), bounce, planes, and the float
-/// columns (`samples::drop_columns`).
+/// columns (`output::columns`, the drop table).
 struct Row {
     walk: (u64, u32),
     planes: u16,

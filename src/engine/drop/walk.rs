@@ -6,6 +6,7 @@
 //! which order, depends only on its index.
 
 use crate::kernel::{Status, Strike};
+use crate::output::columns::Field;
 use crate::output::samples::SampleRows;
 use crate::physics::{quaternion_from_matrix, Motion, State};
 use crate::stats::accumulators::LawAcc;
@@ -318,61 +319,47 @@ struct DropRow<'a> {
     strike: &'a Strike,
 }
 
-/// Appends one impact in the order of
-/// [`drop_columns`](crate::output::samples::drop_columns).
+/// Appends one impact: each column of the drop
+/// [`RowLayout`](crate::output::columns::RowLayout) gets the value its
+/// [`Field`] names.
 fn push_drop(rows: &mut SampleRows, r: &DropRow) {
     rows.index.push(r.sample);
     rows.law.push(r.law);
     let m = r.motion;
     let o = r.strike;
     let q = quaternion_from_matrix(m.rotation);
-    let mut cols = rows.columns();
-    let mut put = |v: f64| cols.put(std::iter::once(v));
-    for v in [r.time, r.interval] {
-        put(v);
+    let q = [q.w, q.x, q.y, q.z];
+    for (k, field) in rows.float_fields().iter().enumerate() {
+        let v = match *field {
+            Field::Time => r.time,
+            Field::Interval => r.interval,
+            Field::Centre(c) => m.centre[c],
+            Field::Quaternion(c) => q[c],
+            Field::Velocity(c) => m.velocity[c],
+            Field::Omega(c) => m.omega[c],
+            Field::EnergyBefore => o.energy_before,
+            Field::EnergyAfter { .. } => o.energy_after,
+            Field::EnergyRatio { .. } => o.energy_after / o.energy_before,
+            Field::VelocityAfter { axis, .. } => o.after.velocity[axis],
+            Field::OmegaAfter { axis, .. } => o.after.omega[axis],
+            Field::Distance { plane } => o.distance[plane],
+            Field::VnBefore { plane } => o.normal_velocity_before[plane],
+            Field::VnAfter { plane, .. } => o.contacts[plane].normal_velocity_after,
+            Field::Impulse { plane, .. } => o.contacts[plane].impulse,
+            f => unreachable!("{f:?} is not a drop row's float column"),
+        };
+        rows.put(k, std::iter::once(v));
     }
-    for v in m.centre.to_array() {
-        put(v);
-    }
-    for v in [q.w, q.x, q.y, q.z] {
-        put(v);
-    }
-    for v in m.velocity.to_array().into_iter().chain(m.omega.to_array()) {
-        put(v);
-    }
-    for v in [
-        o.energy_before,
-        o.energy_after,
-        o.energy_after / o.energy_before,
-    ] {
-        put(v);
-    }
-    for v in o
-        .after
-        .velocity
-        .to_array()
-        .into_iter()
-        .chain(o.after.omega.to_array())
-    {
-        put(v);
-    }
-    for i in 0..o.planes {
-        let c = &o.contacts[i];
-        for v in [
-            o.distance[i],
-            o.normal_velocity_before[i],
-            c.normal_velocity_after,
-            c.impulse,
-        ] {
-            put(v);
-        }
-    }
-    // The drop reference raises energy_gain, degenerate, jammed and
-    // unsolved; their bits end at bit 12.
-    let flags = o.flags.to_bits().bits();
-    // Bounces are at most 10,000, planes at most six, flags end at bit 12.
-    let ints = [r.bounce, r.planes, flags].map(|v| v as u16);
-    for (col, v) in rows.ints.iter_mut().zip(ints) {
-        col.push(v);
+    for (k, field) in rows.int_fields().iter().enumerate() {
+        // Bounces are at most 10,000 and planes at most six; the drop
+        // reference raises energy_gain, degenerate, jammed and unsolved,
+        // whose bits end at bit 12.
+        let v = match *field {
+            Field::Bounce => r.bounce,
+            Field::Planes => r.planes,
+            Field::Flags { .. } => o.flags.to_bits().bits(),
+            f => unreachable!("{f:?} is not a drop row's integer column"),
+        };
+        rows.ints[k].push(v as u16);
     }
 }
