@@ -21,7 +21,7 @@ use impactmc::config::case::solve_text;
 use impactmc::config::sweep::plan_text;
 use impactmc::config::{Overrides, SceneError, SceneText};
 use impactmc::engine::{RunError, RunOptions, Watch};
-use impactmc::output::parquet::ArrowTable;
+use impactmc::output::arrow::ArrowTable;
 use impactmc::output::{prepare_dir, OutputError};
 use impactmc::stats::tree::Shard;
 use impactmc::study::{self, message_chain, Study, StudyError};

@@ -3,6 +3,7 @@
 //! (cryo's export pattern). The manifest is built in one place for every
 //! kind of run; summaries are typed; per-sample rows stream to Parquet.
 
+pub mod arrow;
 pub mod columns;
 mod direct;
 pub mod manifest;

@@ -29,8 +29,8 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 
 use arrow_array::{
-    ArrayRef, Float32Array, Float64Array, RecordBatch, RecordBatchReader, StringArray, UInt16Array,
-    UInt32Array, UInt64Array, UInt8Array,
+    ArrayRef, Float32Array, Float64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
+    UInt8Array,
 };
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk, ArrowRowGroupWriterFactory};
@@ -327,146 +327,12 @@ impl SamplesWriter {
     }
 }
 
-/// Per-sample rows kept in memory as Arrow record batches, with the
-/// columns and schema `samples.parquet` would have: a run without an
-/// output folder. Each engine batch's rows become one record batch; the
-/// columns are moved, not copied.
-pub struct MemoryRows {
-    selection: Selection,
-    schema: SchemaRef,
-    point: Option<u32>,
-    sweep: bool,
-    batches: Vec<RecordBatch>,
-}
-
-impl MemoryRows {
-    pub fn new(selection: Selection, sweep: bool) -> Self {
-        let schema = Arc::new(schema_of(&selection, sweep));
-        Self {
-            selection,
-            schema,
-            point: None,
-            sweep,
-            batches: Vec::new(),
-        }
-    }
-
-    /// Per float column of the scene, whether the rows keep it.
-    pub fn float_mask(&self) -> &[bool] {
-        self.selection.float_mask()
-    }
-
-    /// Sets the grid point of the following rows (a sweep).
-    pub fn set_point(&mut self, point: Option<u32>) {
-        self.point = point;
-    }
-
-    /// Takes a batch of rows (in sample order).
-    pub fn push(&mut self, rows: SampleRows) -> Result<(), arrow_schema::ArrowError> {
-        if rows.is_empty() {
-            return Ok(());
-        }
-        let point = self
-            .sweep
-            .then(|| self.point.expect("a sweep sets its point"));
-        let columns = arrays(&self.selection, point, rows);
-        self.batches
-            .push(RecordBatch::try_new(self.schema.clone(), columns)?);
-        Ok(())
-    }
-
-    /// The schema and every record batch, in sample order.
-    pub fn finish(self) -> ArrowTable {
-        ArrowTable {
-            schema: self.schema,
-            batches: self.batches,
-        }
-    }
-}
-
-/// A table in memory as Arrow record batches: per-sample rows (with
-/// `samples.parquet`'s schema, in sample order) or a summary table.
-#[derive(Debug, Clone)]
-pub struct ArrowTable {
-    pub schema: SchemaRef,
-    pub batches: Vec<RecordBatch>,
-}
-
-impl ArrowTable {
-    pub fn rows(&self) -> usize {
-        self.batches.iter().map(|b| b.num_rows()).sum()
-    }
-
-    /// A polars table (the summary tables are built with polars) as Arrow
-    /// record batches, through Parquet in memory: the columns, types and
-    /// values its Parquet file holds.
-    pub fn of_frame(df: &mut polars::prelude::DataFrame) -> Result<Self, ParquetError> {
-        let mut buffer = Vec::new();
-        polars::prelude::ParquetWriter::new(&mut buffer)
-            .finish(df)
-            .map_err(|e| ParquetError::External(Box::new(e)))?;
-        Self::of_parquet(bytes::Bytes::from(buffer))
-    }
-
-    /// A Parquet file's rows (`samples.parquet` of a run folder).
-    pub fn read(path: &Path) -> Result<Self, ParquetError> {
-        let file = std::fs::File::open(path).map_err(|e| ParquetError::External(Box::new(e)))?;
-        Self::of_parquet(file)
-    }
-
-    /// The rows of one grid point, by the `point` column (a table without
-    /// one is a single point, 0): slices of the batches, not copies. The
-    /// rows of a point need not be contiguous.
-    pub fn point(&self, point: u32) -> Self {
-        let mut batches = Vec::new();
-        for b in &self.batches {
-            let Some(col) = b.column_by_name("point") else {
-                if point == 0 {
-                    batches.push(b.clone());
-                }
-                continue;
-            };
-            let col = col
-                .as_any()
-                .downcast_ref::<UInt32Array>()
-                .expect("point is UInt32");
-            let mut start = None;
-            for (i, &p) in col.values().iter().enumerate() {
-                match (p == point, start) {
-                    (true, None) => start = Some(i),
-                    (false, Some(s)) => {
-                        batches.push(b.slice(s, i - s));
-                        start = None;
-                    }
-                    _ => {}
-                }
-            }
-            if let Some(s) = start {
-                batches.push(b.slice(s, b.num_rows() - s));
-            }
-        }
-        Self {
-            schema: self.schema.clone(),
-            batches,
-        }
-    }
-
-    /// Every row of Parquet data, as record batches.
-    fn of_parquet<R: parquet::file::reader::ChunkReader + 'static>(
-        data: R,
-    ) -> Result<Self, ParquetError> {
-        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(data)?
-            .build()?;
-        let schema = reader.schema();
-        let batches = reader
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| ParquetError::External(Box::new(e)))?;
-        Ok(Self { schema, batches })
-    }
-}
-
 /// A batch's selected columns, in the schema's order (`point` for a sweep).
-fn arrays(selection: &Selection, point: Option<u32>, mut b: SampleRows) -> Vec<ArrayRef> {
+pub(super) fn arrays(
+    selection: &Selection,
+    point: Option<u32>,
+    mut b: SampleRows,
+) -> Vec<ArrayRef> {
     let n = b.len();
     let mut cols: Vec<ArrayRef> = Vec::new();
     if let Some(p) = point {
@@ -580,7 +446,7 @@ fn write_in_order(
 }
 
 /// The Arrow schema of the selected columns.
-fn schema_of(selection: &Selection, sweep: bool) -> Schema {
+pub(super) fn schema_of(selection: &Selection, sweep: bool) -> Schema {
     let mut fields = Vec::new();
     if sweep {
         fields.push(Field::new("point", DataType::UInt32, false));

@@ -29,6 +29,7 @@ use crate::stats::drops::Ending;
 
 mod ctx;
 mod flight;
+mod impact;
 mod walk;
 
 use flight::Stop;
