@@ -20,6 +20,7 @@ use crate::lanes::{select, sin_cos, Real};
 use crate::physics::{TorqueFree, THETA_TERMS};
 
 pub mod setup;
+mod special;
 
 use setup::LEVELS;
 
