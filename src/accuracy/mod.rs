@@ -13,11 +13,13 @@
 
 mod flight;
 mod ladder;
+mod plot;
 mod report;
 
 pub use flight::flight_ladder;
 pub use ladder::{contact_point_rungs, ladder, ladder_of};
-pub use report::{plot_svg, write_folder};
+pub use plot::plot_svg;
+pub use report::write_folder;
 
 use std::time::Instant;
 
