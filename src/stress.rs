@@ -369,8 +369,15 @@ fn states(n: usize, speed: f64, spin: f64) -> Vec<State> {
 /// Runs every family with `samples` samples per case (kernel families) or
 /// per state set (reference families).
 pub fn run(samples: usize) -> Vec<Row> {
+    let mut rows = body_families(samples);
+    rows.extend(contact_families(samples));
+    rows.extend(reference_families(samples));
+    rows
+}
+
+/// The body families, in the kernel: aspect ratio, mass and scale.
+fn body_families(samples: usize) -> Vec<Row> {
     let mut rows = Vec::new();
-    let uniform = || RawOrientation::Uniform;
     // Aspect ratio c/a over 1e-4 … 1e4, and the sphere.
     for e in -4..=4 {
         let c = 10f64.powi(e);
@@ -406,6 +413,14 @@ pub fn run(samples: usize) -> Vec<Row> {
             samples,
         ));
     }
+    rows
+}
+
+/// The contact families, in the kernel: gimbal lock, grazing approach,
+/// wedges and restitution at its ends.
+fn contact_families(samples: usize) -> Vec<Row> {
+    let mut rows = Vec::new();
+    let uniform = || RawOrientation::Uniform;
     // Gimbal lock: θ = 90° − δ, fixed orientation, random velocities.
     for delta in [0.0, 1e-12, 1e-9, 1e-6, 1e-3] {
         rows.extend(kernel_rows(
@@ -487,6 +502,14 @@ pub fn run(samples: usize) -> Vec<Row> {
             samples,
         ));
     }
+    rows
+}
+
+/// The reference families: geometry a placement cannot express (wedges
+/// closing to parallel, parallel planes, the paper's critical case, boxes
+/// of up to six planes).
+fn reference_families(samples: usize) -> Vec<Row> {
+    let mut rows = Vec::new();
     // Reference families: geometry a placement cannot express.
     let st = states(samples.min(2000), 1.0, 1.0);
     let ell = Ellipsoid::new([1.0, 1.5, 2.0], 3.0).expect("valid");
