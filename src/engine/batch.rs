@@ -20,7 +20,7 @@ use crate::physics::{quaternion_from_matrix, Law};
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::record_friction;
-use crate::stats::block::{block_stats, Before, Derived, StatsPlan};
+use crate::stats::block::{block_stats, Before, Scratch, StatsPlan};
 
 /// Scratch space of one worker: taken from the run's pool for a batch and
 /// returned after it, so a worker allocates it once per run.
@@ -31,10 +31,7 @@ pub(crate) struct Work<T, const N: usize> {
     /// With friction: the contact frames and the Gauss–Seidel state.
     pub(crate) frame: Box<Frame<T, N>>,
     pub(crate) sweep: Box<Sweep<T, N>>,
-    pub(crate) derived: Box<Derived<T, N>>,
-    /// laws[0]'s per-lane statistics, for paired differences.
-    pub(crate) first: Box<Derived<T, N>>,
-    pub(crate) diff: Box<[T; BLOCK]>,
+    pub(crate) stats: Scratch<T, N>,
 }
 
 impl<T: Real, const N: usize> Work<T, N> {
@@ -45,9 +42,7 @@ impl<T: Real, const N: usize> Work<T, N> {
             outs: (0..laws).map(|_| LawOut::new()).collect(),
             frame: Frame::new(),
             sweep: Sweep::new(),
-            derived: Derived::new(),
-            first: Derived::new(),
-            diff: Box::new([T::ZERO; BLOCK]),
+            stats: Scratch::new(),
         }
     }
 }
@@ -200,9 +195,7 @@ pub(crate) fn run_block<
         &work.outs,
         count,
         ctx.plan,
-        &mut work.derived,
-        &mut work.first,
-        &mut work.diff,
+        &mut work.stats,
         acc,
     );
     if let Some(rows) = rows {

@@ -13,6 +13,25 @@ use crate::lanes::{select, Real};
 use crate::stats::accumulators::{FrictionAcc, GroupAcc, LawAcc, RunAcc};
 use crate::stats::{scatter, LogHistogram, Moments, Stat, BINS};
 
+/// The block statistics' scratch space: a worker's, allocated once per
+/// run.
+pub(crate) struct Scratch<T, const N: usize> {
+    derived: Box<Derived<T, N>>,
+    /// laws[0]'s per-lane statistics, for paired differences.
+    first: Box<Derived<T, N>>,
+    diff: Box<[T; BLOCK]>,
+}
+
+impl<T: Real, const N: usize> Scratch<T, N> {
+    pub(crate) fn new() -> Self {
+        Self {
+            derived: Derived::new(),
+            first: Derived::new(),
+            diff: Box::new([T::ZERO; BLOCK]),
+        }
+    }
+}
+
 /// Per-lane statistics of one law in a block, in the kernel's precision,
 /// with their masks (weights 1 or 0, in the same type). Cache-line aligned.
 #[repr(C, align(64))]
@@ -222,11 +241,10 @@ multiversioned! {
         outs: &[Box<LawOut<T, N>>],
         count: usize,
         plan: StatsPlan,
-        derived: &mut Box<Derived<T, N>>,
-        first: &mut Box<Derived<T, N>>,
-        diff: &mut [T; BLOCK],
+        scratch: &mut Scratch<T, N>,
         acc: &mut RunAcc,
     ) {
+        let Scratch { derived, first, diff } = scratch;
         block_stats_lanes(before, outs, count, plan, derived, first, diff, acc)
     }
 }

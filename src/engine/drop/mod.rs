@@ -24,7 +24,7 @@ use crate::lanes::dispatch::BLOCK;
 use crate::output::samples::SampleRows;
 use crate::physics::{Law, Motion, Rotation};
 use crate::stats::accumulators::RunAcc;
-use crate::stats::block::{block_stats, record_friction, Before, Derived};
+use crate::stats::block::{block_stats, record_friction, Before, Scratch};
 use crate::stats::drops::Ending;
 
 mod ctx;
@@ -94,8 +94,7 @@ impl DropCtx<'_> {
         let mut energy = vec![[0.0; BLOCK]; laws.len()];
         let mut vn = vec![[[0.0; BLOCK]; N]; laws.len()];
         let mut outs: Vec<Box<LawOut<f64, N>>> = (0..laws.len()).map(|_| LawOut::new()).collect();
-        let (mut derived, mut base) = (Derived::<f64, N>::new(), Derived::<f64, N>::new());
-        let mut diff = Box::new([0.0; BLOCK]);
+        let mut scratch = Scratch::<f64, N>::new();
         let mut logs: Vec<Log> = Vec::new();
         let mut kept = self
             .lanes
@@ -139,9 +138,7 @@ impl DropCtx<'_> {
                     &outs,
                     n,
                     self.plan,
-                    &mut derived,
-                    &mut base,
-                    &mut diff,
+                    &mut scratch,
                     acc,
                 );
                 for (la, out) in acc.laws.iter_mut().zip(&outs) {
