@@ -253,39 +253,6 @@ impl PyScene {
     }
 }
 
-/// Sets `value` at the dotted `path` of a TOML table; a table given for a
-/// table is merged into it key by key, anything else replaces.
-fn set_field(table: &mut toml::Table, path: &str, value: toml::Value) -> Result<(), String> {
-    let mut segments = path.split('.').peekable();
-    let mut cur = table;
-    while let Some(seg) = segments.next() {
-        if seg.is_empty() {
-            return Err(format!("{path:?} is not a field path"));
-        }
-        if segments.peek().is_none() {
-            match (cur.get_mut(seg), value) {
-                (Some(toml::Value::Table(old)), toml::Value::Table(new)) => {
-                    for (k, v) in new {
-                        set_field(old, &k, v)?;
-                    }
-                }
-                (_, value) => {
-                    cur.insert(seg.to_string(), value);
-                }
-            }
-            return Ok(());
-        }
-        let next = cur
-            .entry(seg.to_string())
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        cur = match next {
-            toml::Value::Table(t) => t,
-            _ => return Err(format!("{seg} in {path:?} is not a table")),
-        };
-    }
-    Ok(())
-}
-
 /// A JSON value as a TOML value. TOML has no null; a non-finite float,
 /// which JSON cannot hold, comes as `{"$float": "nan" | "inf" | "-inf"}`
 /// (the Python layer's encoding).
@@ -361,16 +328,18 @@ impl PyScene {
     }
 
     /// The scene with fields replaced: a JSON object of dotted field paths
-    /// (`samples`, `body.mass`, `planes`) and values; tables merge into
-    /// tables. Errors name the scene `<replaced>`.
+    /// (`samples`, `body.mass`, `planes.floor.restitution`, `planes`) and
+    /// values, by the rules of a sweep's paths (`config::path`); tables
+    /// merge into tables. Errors name the scene `<replaced>`.
     fn _replace(&self, json: &str) -> PyResult<Self> {
-        let mut table: toml::Table = self
+        let table: toml::Table = self
             .src
             .text
             .parse()
             .map_err(|e: toml::de::Error| PyRuntimeError::new_err(e.to_string()))?;
+        let mut table = toml::Value::Table(table);
         for (path, value) in toml_of_json(json, "replace")? {
-            set_field(&mut table, &path, value)
+            impactmc::config::path::set(&mut table, &path, value)
                 .map_err(|m| input_error(m.clone(), Some(&path), None, None))?;
         }
         let text = toml::to_string(&table).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;

@@ -78,6 +78,17 @@ def test_bad_input_raises_input_error_naming_the_field(fields, field, words):
     assert words in str(e.value)
 
 
+def test_replace_takes_a_sweep_s_paths():
+    """A plane by name, as a sweep addresses it, and by index."""
+    s = impactmc.Scene.from_str(FLOOR)
+    by_name = s.replace(**{"planes.floor.restitution": 0.3})
+    assert "restitution = 0.3" in by_name.toml
+    by_index = s.replace(**{"planes[0].restitution": 0.4})
+    assert "restitution = 0.4" in by_index.toml
+    with pytest.raises(impactmc.InputError):
+        s.replace(**{"planes.ceiling.restitution": 0.3})
+
+
 def test_input_error_has_the_cli_message_and_line(cli, tmp_path):
     path = tmp_path / "bad.toml"
     path.write_text(FLOOR.replace("restitution = 0.8", "restitution = 1.8"))

@@ -5,6 +5,7 @@
 mod bad;
 pub mod case;
 mod effects;
+pub mod path;
 mod plane;
 pub mod raw;
 mod scene;

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use crate::config::path as field_path;
 use crate::config::RawScene;
 use crate::config::{Overrides, Scene, SceneError, SceneText};
 
@@ -33,71 +34,29 @@ fn err(file: &str, field: &str, message: String) -> SceneError {
     }
 }
 
-/// Sets the number at `path` (`a.b[2]`, `planes.floor.restitution`,
-/// `planes[1].offset`) in a TOML value.
+/// Sets the number at `path` (rules of [`super::path`]) in a TOML value.
+/// The field must be there and be a number (an integer stays one where
+/// the value is whole), except a plane's `friction`, which may be absent
+/// (μ = 0).
 pub fn set_path(root: &mut toml::Value, path: &str, value: f64) -> Result<(), String> {
-    let mut cur = root;
-    let segments: Vec<&str> = path.split('.').collect();
-    for (si, seg) in segments.iter().enumerate() {
-        let (key, index) = match seg.find('[') {
-            Some(b) if seg.ends_with(']') => {
-                let i: usize = seg[b + 1..seg.len() - 1]
-                    .parse()
-                    .map_err(|_| format!("bad index in {seg:?}"))?;
-                (&seg[..b], Some(i))
-            }
-            _ => (*seg, None),
-        };
-        cur = match cur {
-            // A plane's friction may be absent (μ = 0): a sweep sets it.
-            toml::Value::Table(t)
-                if si + 1 == segments.len()
-                    && index.is_none()
-                    && key == "friction"
-                    && !t.contains_key(key) =>
-            {
-                t.insert(key.into(), toml::Value::Float(value));
-                return Ok(());
-            }
-            toml::Value::Table(t) => t.get_mut(key).ok_or_else(|| format!("no field {key:?}"))?,
-            toml::Value::Array(a) => {
-                // An array of tables addressed by the element's `name`.
-                a.iter_mut()
-                    .find(|v| v.get("name").and_then(|n| n.as_str()) == Some(key))
-                    .ok_or_else(|| format!("no element named {key:?}"))?
-            }
-            _ => return Err(format!("{key:?} is not a table")),
-        };
-        if let Some(i) = index {
-            cur = cur
-                .as_array_mut()
-                .ok_or_else(|| format!("{key:?} is not an array"))?
-                .get_mut(i)
-                .ok_or_else(|| format!("index {i} out of range in {seg:?}"))?;
+    let number = match field_path::get(root, path)? {
+        Some(toml::Value::Integer(_)) if value.fract() == 0.0 && value.abs() < 9e15 => {
+            toml::Value::Integer(value as i64)
         }
-        if si + 1 == segments.len() {
-            match cur {
-                toml::Value::Float(_) | toml::Value::Integer(_) => {
-                    *cur = if matches!(cur, toml::Value::Integer(_))
-                        && value.fract() == 0.0
-                        && value.abs() < 9e15
-                    {
-                        toml::Value::Integer(value as i64)
-                    } else {
-                        toml::Value::Float(value)
-                    };
-                    return Ok(());
-                }
-                other => {
-                    return Err(format!(
-                        "{path:?} is not a number (it is {})",
-                        other.type_str()
-                    ))
-                }
-            }
+        Some(toml::Value::Float(_) | toml::Value::Integer(_)) => toml::Value::Float(value),
+        None if path.rsplit('.').next() == Some("friction") => toml::Value::Float(value),
+        None => {
+            let key = path.rsplit('.').next().unwrap_or(path);
+            return Err(format!("no field {key:?}"));
         }
-    }
-    Err(format!("empty path {path:?}"))
+        Some(other) => {
+            return Err(format!(
+                "{path:?} is not a number (it is {})",
+                other.type_str()
+            ))
+        }
+    };
+    field_path::set(root, path, number)
 }
 
 /// Reads the sweep axes of a raw scene, in file order.

@@ -133,14 +133,7 @@ impl DropCtx<'_> {
                     .zip(&vn)
                     .map(|(energy, vn)| Before { energy, vn })
                     .collect();
-                block_stats(
-                    &before,
-                    &outs,
-                    n,
-                    self.plan,
-                    &mut scratch,
-                    acc,
-                );
+                block_stats(&before, &outs, n, self.plan, &mut scratch, acc);
                 for (la, out) in acc.laws.iter_mut().zip(&outs) {
                     if let Some(fr) = la.friction.as_mut() {
                         record_friction(out, n, fr);
