@@ -181,10 +181,7 @@ fn drop_results_do_not_depend_on_threads() {
         )
         .unwrap();
         let strip = |r: impactmc::stats::RunResult| {
-            let mut v = serde_json::to_value(Summary::new(&s, &r)).unwrap();
-            v.as_object_mut().unwrap().remove("throughput");
-            v.as_object_mut().unwrap().remove("threads");
-            v
+            support::without_timing(serde_json::to_value(Summary::new(&s, &r)).unwrap())
         };
         let one = strip(run_drop(&s, 1));
         let two = strip(run_drop(&s, 2));
@@ -434,22 +431,6 @@ fn run_cli(scene: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> se
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
-fn strip_timing(mut v: serde_json::Value) -> serde_json::Value {
-    fn strip(v: &mut serde_json::Value) {
-        if let Some(o) = v.as_object_mut() {
-            o.remove("throughput");
-            o.remove("threads");
-            for (_, x) in o.iter_mut() {
-                strip(x);
-            }
-        } else if let Some(a) = v.as_array_mut() {
-            a.iter_mut().for_each(strip);
-        }
-    }
-    strip(&mut v);
-    v
-}
-
 /// Three shards of drop_corner (two laws, every histogram kept), merged,
 /// give the single run's summary and tables to the last bit, in the lanes
 /// of either precision.
@@ -493,8 +474,8 @@ fn drop_shards_merge_to_the_single_run() {
         support::assert_succeeded(&o);
         let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         assert_eq!(
-            strip_timing(merged),
-            strip_timing(single.clone()),
+            support::without_timing(merged),
+            support::without_timing(single.clone()),
             "{precision}"
         );
         assert_eq!(single["precision"], precision);

@@ -30,10 +30,7 @@ fn summary(s: &Scene, threads: usize) -> Summary {
 
 /// The summary without its timing, for comparisons.
 fn without_timing(s: &Summary) -> serde_json::Value {
-    let mut v = serde_json::to_value(s).unwrap();
-    v.as_object_mut().unwrap().remove("throughput");
-    v.as_object_mut().unwrap().remove("threads");
-    v
+    support::without_timing(serde_json::to_value(s).unwrap())
 }
 
 #[test]

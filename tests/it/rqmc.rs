@@ -217,13 +217,8 @@ fn rqmc_intervals_cover() {
 #[test]
 fn rqmc_is_deterministic_across_threads_and_shards() {
     let s = scene("corner3", rqmc(1 << 20, 8, 5, "f32"));
-    let untimed = |threads| {
-        let mut v = serde_json::to_value(summary(&s, threads)).unwrap();
-        let o = v.as_object_mut().unwrap();
-        o.remove("throughput");
-        o.remove("threads");
-        v
-    };
+    let untimed =
+        |threads| support::without_timing(serde_json::to_value(summary(&s, threads)).unwrap());
     assert_eq!(untimed(1), untimed(2));
 
     let dir = support::tmpdir("rqmc-shards");
@@ -286,12 +281,7 @@ fn rqmc_is_deterministic_across_threads_and_shards() {
     }
     let out = succeeded(cmd.output().unwrap());
     let merged_json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let strip = |mut v: serde_json::Value| {
-        let o = v.as_object_mut().unwrap();
-        o.remove("throughput");
-        o.remove("threads");
-        v
-    };
+    let strip = support::without_timing;
     let (w, m) = (strip(whole_json), strip(merged_json));
     assert_eq!(w["sampling"]["replicates"], 8);
     assert!(w["laws"]["newton"]["groups"]["all"]["stats"]["energy_ratio"]["gain"].is_number());

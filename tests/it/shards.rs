@@ -63,22 +63,7 @@ fn merge(dirs: &[PathBuf], out: &Path, extra: &[&str]) -> Output {
 
 /// The summary JSON without what legitimately differs (timings, threads).
 fn summary_without_timing(stdout: &[u8]) -> serde_json::Value {
-    let mut v: serde_json::Value = serde_json::from_slice(stdout).unwrap();
-    fn strip(v: &mut serde_json::Value) {
-        if let Some(o) = v.as_object_mut() {
-            o.remove("throughput");
-            o.remove("threads");
-            for x in o.values_mut() {
-                strip(x);
-            }
-        } else if let Some(a) = v.as_array_mut() {
-            for x in a {
-                strip(x);
-            }
-        }
-    }
-    strip(&mut v);
-    v
+    support::without_timing(serde_json::from_slice(stdout).unwrap())
 }
 
 /// The first path at which two JSON values differ, for short messages.

@@ -225,3 +225,19 @@ impl Rng {
         glam::DVec3::new(self.normal(), self.normal(), self.normal()).normalize()
     }
 }
+
+/// A summary's JSON without what legitimately differs between runs of the
+/// same scene (`throughput`, `threads`), at any depth.
+pub fn without_timing(mut v: serde_json::Value) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        if let Some(o) = v.as_object_mut() {
+            o.remove("throughput");
+            o.remove("threads");
+            o.values_mut().for_each(strip);
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(strip);
+        }
+    }
+    strip(&mut v);
+    v
+}
