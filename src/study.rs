@@ -134,7 +134,7 @@ impl StudyError {
 /// per-sample rows into the staging area of `dir` when the scene asks for
 /// them. Without `dir` nothing is written: the rows stay in memory
 /// ([`Study::samples`]) and [`Study::write`] refuses.
-pub fn run_study(
+pub fn run(
     src: &SceneText,
     overrides: &Overrides,
     opts: &RunOptions,
@@ -600,15 +600,4 @@ pub fn prepare(
         effects_line: scene.effects().line(),
         kernel_line: crate::engine::describe(scene, opts.keep),
     })
-}
-
-/// Runs a scene: every grid point through the engine ([`run_study`]),
-/// into the run folder `dir`, or kept in memory without one.
-pub fn run(
-    src: &SceneText,
-    overrides: &Overrides,
-    opts: &RunOptions,
-    dir: Option<&Path>,
-) -> Result<Study, StudyError> {
-    run_study(src, overrides, opts, dir)
 }

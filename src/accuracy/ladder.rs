@@ -70,7 +70,7 @@ pub fn ladder(path: &Path, steps: &mut Steps) -> Result<Ladder, LadderError> {
     ladder_of(&SceneText::read(path)?, steps)
 }
 
-/// [`ladder`] of scene text (the file it names is only for errors).
+/// [`ladder`](fn@ladder) of scene text (the file it names is only for errors).
 pub fn ladder_of(src: &SceneText, steps: &mut Steps) -> Result<Ladder, LadderError> {
     let file = src.file.clone();
     let base = src.scene(&Overrides::default())?;

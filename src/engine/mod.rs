@@ -101,10 +101,14 @@ pub struct RunOptions {
     /// Run only this shard's batches.
     pub shard: Option<Shard>,
     /// Effects computed although the scene does not need them (same
-    /// answers; for measuring what the specialisation saves).
+    /// answers; a benchmark's knob, for measuring what the specialisation
+    /// saves).
+    #[doc(hidden)]
     pub keep: Keep,
     /// The per-sample float columns a sink takes (one flag per column of
-    /// `RowLayout`); the others are not computed. None: all.
+    /// `RowLayout`); the others are not computed. None: all. Set by
+    /// [`crate::run`] from the scene's column selection.
+    #[doc(hidden)]
     pub sample_floats: Option<Vec<bool>>,
     /// Progress and cancellation for a caller on another thread.
     pub watch: Option<Arc<Watch>>,

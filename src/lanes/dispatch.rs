@@ -2,7 +2,7 @@
 //! SIMD targets, and the stack-frame alignment every entry point starts
 //! with.
 //!
-//! A lane function is compiled once per target in [`multiversioned!`] and
+//! A lane function is compiled once per target in `multiversioned!` and
 //! the best the CPU supports is chosen at run time (no
 //! `-C target-cpu=native`). The entry points are the block functions of the
 //! engine, the statistics pass and the moments' masked sums; each is a thin

@@ -13,7 +13,7 @@
 //! columns plain, and `point` and `law` dictionary-encoded. Statistics are kept
 //! per row group and page, so readers can prune on `sample`, `bounce` and
 //! the like. The file is written around the page cache where it can be
-//! ([`DirectFile`]).
+//! (`DirectFile`).
 //!
 //! The arrow-rs writer is used rather than polars': it offers
 //! `BYTE_STREAM_SPLIT` (files 10 % smaller at LZ4 for the same encoding

@@ -529,7 +529,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
 
 impl Summary {
     /// The summary of a run; with RQMC replicates, every interval from
-    /// their spread ([`Self::replicated`]).
+    /// their spread (`replicated`).
     pub fn new(scene: &Scene, result: &RunResult) -> Self {
         let mut summary = Self::of_acc(scene, &result.acc, result);
         if let Some(replicates) = scene.sampling().replicates() {

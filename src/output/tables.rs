@@ -214,7 +214,7 @@ pub type PointValues = Vec<(String, f64)>;
 /// accumulators).
 pub type LawAccs<'a> = Vec<(String, Vec<String>, &'a LawAcc)>;
 
-/// The summary table of a study: [`summary_frame_one`] per grid point, with
+/// The summary table of a study: `summary_frame_one` per grid point, with
 /// `point` and the `sweep_*` columns in front.
 pub fn summary_frame(points: &[(Vec<(String, f64)>, &Summary)]) -> Result<DataFrame, PolarsError> {
     stack_points(

@@ -50,7 +50,7 @@ pub fn carlson_rc(x: f64, y: f64) -> f64 {
 }
 
 /// Carlson's R_J(x, y, z, p) for x, y, z ≥ 0 (at most one zero) and p > 0,
-/// by duplication to a relative error of about 1e-16 ([`carlson_rf_rj`]).
+/// by duplication to a relative error of about 1e-16 (`carlson_rf_rj`).
 pub fn carlson_rj(x: f64, y: f64, z: f64, p: f64) -> f64 {
     carlson_rf_rj(x, y, z, p).1
 }

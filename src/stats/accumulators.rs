@@ -87,7 +87,7 @@ pub struct PairAcc {
     pub omega_after_norm: Moments,
     pub velocity_after_norm: Moments,
     /// Contact scenes: samples where this law raises `energy_gain` and
-    /// laws[0] does not, and the other way round (with friction, how often
+    /// `laws[0]` does not, and the other way round (with friction, how often
     /// `newton` commits Kane's paradox where `stronge` does not).
     pub energy_gain_only: u64,
     pub first_energy_gain_only: u64,
@@ -97,7 +97,7 @@ pub struct PairAcc {
 pub struct RunAcc {
     /// A contact scene's impact, or a drop scene's first impact, per law.
     pub laws: Vec<LawAcc>,
-    /// `pairs[i]` is laws[i + 1] − laws[0].
+    /// `pairs[i]` is `laws[i + 1]` − `laws[0]`.
     pub pairs: Vec<PairAcc>,
     /// A drop scene's bounces, per law (empty for a contact scene).
     pub drops: Vec<DropAcc>,

@@ -11,8 +11,8 @@
 //! (per sample and law) in lanes of the scene's precision (`wave.rs`:
 //! flights, times of impact and impacts), the f64 reference
 //! ([`crate::physics`]) for what the lanes leave, every bounce recorded in
-//! [`DropAcc`] and, when asked for, one per-sample row per impact. The first impacts of a block of samples are written into lanes
-//! by the contact fallback's writer ([`write_outcome`]) and recorded by the
+//! [`DropAcc`](crate::stats::drops::DropAcc) and, when asked for, one per-sample row per impact. The first impacts of a block of samples are written into lanes
+//! by the contact fallback's writer ([`write_outcome`](crate::kernel::write_outcome)) and recorded by the
 //! contact scenes' block statistics, so both kinds of scene share one
 //! recorder.
 

@@ -1,4 +1,4 @@
-//! Flights in lanes: the torque-free attitude ([`pose`]), the constants of
+//! Flights in lanes: the torque-free attitude (`pose.rs`), the constants of
 //! a block of motions ([`setup`]), and the time of impact. A block of
 //! flights under gravity toward N planes ([`FlightLanes`]) is searched a
 //! few safe steps at a time ([`advance`]) until each lane's signed gap

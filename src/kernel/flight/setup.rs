@@ -8,12 +8,12 @@
 //!
 //! - K from the Landen sequence's arithmetic–geometric mean the Jacobi
 //!   functions need anyway (K = π/2M), and K′ from a second AGM of
-//!   [`AGM_STEPS`](super::special::AGM_STEPS) steps (quadratic convergence);
+//!   `AGM_STEPS` steps (quadratic convergence);
 //! - the complete integral of the third kind Π(−ν | m) by Bulirsch's
 //!   `cel` (R. Bulirsch, Numer. Math. 13, 1969), held per lane once
 //!   converged (at most [`CEL_STEPS`] steps);
 //! - the incomplete integrals of the first kind (the theta series' β, the
-//!   initial phase) by Carlson's duplication for R_F, [`RF_STEPS`](super::special::RF_STEPS)
+//!   initial phase) by Carlson's duplication for R_F, `RF_STEPS`
 //!   duplications;
 //! - the theta series' coefficients by one `exp` each.
 //!

@@ -89,7 +89,7 @@ pub(super) fn sweep<T: Real, const N: usize, const COUPLED: bool>(
 }
 
 /// The impulses of a frictional law on a block, then the post-impact
-/// quantities into `out` (as [`post`] does without friction), with the
+/// quantities into `out` (as [`post`](crate::kernel::post) does without friction), with the
 /// tangential impulse and sliding speed per contact.
 #[inline(always)]
 pub fn friction_impulses<T: Real, const N: usize>(
