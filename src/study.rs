@@ -33,9 +33,13 @@ use crate::stats::RunResult;
 
 /// One grid point's run.
 pub struct PointRun {
+    /// The swept fields' values at this point (empty without a sweep).
     pub values: Vec<(String, f64)>,
+    /// The point's scene.
     pub scene: Scene,
+    /// The merged accumulators.
     pub result: RunResult,
+    /// What they say: the summary the CLI prints and writes.
     pub summary: Summary,
 }
 
@@ -51,12 +55,20 @@ impl PointRun {
     }
 }
 
+/// A finished run: the scene as given, every grid point's results, and
+/// the per-sample rows when asked for ([`Study::write`] writes the run
+/// folder).
+#[must_use = "a run's results: write them (Study::write) or read them"]
 pub struct Study {
     /// The scene as given (overrides applied, sweep included).
     pub raw: RawScene,
+    /// The sweep's axes (empty without a sweep).
     pub axes: Vec<Axis>,
+    /// Every grid point's run, in grid order.
     pub points: Vec<PointRun>,
+    /// When the run started.
     pub started: SystemTime,
+    /// When the last point finished.
     pub finished: SystemTime,
     /// What samples.parquet holds, when asked for.
     pub per_sample: Option<PerSample>,
@@ -104,14 +116,19 @@ pub fn message_chain(e: &dyn std::error::Error) -> String {
     s
 }
 
+/// Why a run or a merge failed.
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {
+    /// A bad scene, override or grid point.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// The engine failed (or was cancelled).
     #[error(transparent)]
     Run(#[from] RunError),
+    /// The run folder could not be written.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// Shards that do not make one run.
     #[error(transparent)]
     Merge(#[from] MergeError),
 }
@@ -347,6 +364,7 @@ pub fn merge_study(
 }
 
 impl Study {
+    /// Whether the scene has a sweep.
     pub fn is_sweep(&self) -> bool {
         !self.axes.is_empty()
     }

@@ -20,13 +20,17 @@ pub const DEFAULT_TOLERANCE_RELATIVE: f64 = 1e-9;
 /// A rotation matrix is accepted when `max |AᵀA − I| ≤ this` and det > 0.
 pub const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
 
+/// The body of a case.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodyInput {
+    /// Semi-axes a, b, c (m).
     pub semi_axes: [f64; 3],
+    /// Mass (kg).
     pub mass: f64,
 }
 
+/// A case's orientation, in one of three forms.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum OrientationInput {
@@ -38,13 +42,18 @@ pub enum OrientationInput {
     Matrix([[f64; 3]; 3]),
 }
 
+/// One plane of a case.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneInput {
+    /// A name for messages (absent: its index).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// The outward normal (normalised on input).
     pub normal: [f64; 3],
+    /// The plane is n·x = offset (m).
     pub offset: f64,
+    /// Coefficient of restitution k in [0, 1].
     pub restitution: f64,
     /// Coulomb coefficient μ ≥ 0 (absent: 0).
     #[serde(
@@ -72,13 +81,19 @@ fn friction_value<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>,
     }
 }
 
+/// A case's impact law (`{"pgs": {"sweeps": 8}}`, `"newton"`, ...).
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum LawInput {
+    /// The paper's decoupled law.
     Paper,
+    /// Newton coupled (an LCP).
     Newton,
+    /// Poisson coupled.
     Poisson,
+    /// Projected Gauss–Seidel on Newton's LCP.
     Pgs {
+        /// Sweeps from λ = 0.
         sweeps: u32,
     },
     /// Energetic restitution with Darboux–Keller integration (one touching
@@ -102,13 +117,22 @@ impl From<LawInput> for Law {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaseInput {
+    /// The ellipsoid.
     pub body: BodyInput,
+    /// Body → world.
     pub orientation: OrientationInput,
+    /// The centre, world frame (m).
     pub position: [f64; 3],
+    /// The centre velocity before, world frame (m/s).
     pub velocity: [f64; 3],
+    /// The angular velocity before, body frame (rad/s).
     pub angular_velocity: [f64; 3],
+    /// One to six planes.
     pub planes: Vec<PlaneInput>,
+    /// The impact law.
     pub law: LawInput,
+    /// Planes this close count as touching (m; absent: 1e-9 of the case's
+    /// length scale).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_tolerance: Option<f64>,
 }
@@ -117,7 +141,9 @@ pub struct CaseInput {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{field}: {message}")]
 pub struct FieldError {
+    /// The field's path in the input.
     pub field: String,
+    /// What is wrong, with the value.
     pub message: String,
 }
 
@@ -302,16 +328,21 @@ impl Case {
 /// One contact in the output, per plane in input order.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 pub struct ContactOutput {
+    /// The plane's index in the input.
     pub plane: usize,
     /// World contact point (m).
     pub point: [f64; 3],
     /// Signed distance (m).
     pub distance: f64,
+    /// Within the contact tolerance.
     pub touching: bool,
+    /// Touching and `v_n < 0` before.
     pub approaching: bool,
+    /// v_n before (m/s).
     pub normal_velocity_before: f64,
     /// Impulse λ (N·s).
     pub impulse: f64,
+    /// v_n after (m/s).
     pub normal_velocity_after: f64,
     /// Tangential impulse `f = P − λn`, world frame (N·s); zero without
     /// friction.
@@ -337,12 +368,15 @@ pub struct ContactOutput {
 /// The public output of `impactmc solve`.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 pub struct CaseOutput {
+    /// Per plane, in input order.
     pub contacts: Vec<ContactOutput>,
     /// Post-impact centre velocity, world frame (m/s).
     pub velocity: [f64; 3],
     /// Post-impact angular velocity, body frame (rad/s).
     pub angular_velocity: [f64; 3],
+    /// Kinetic energy before (J).
     pub energy_before: f64,
+    /// Kinetic energy after (J).
     pub energy_after: f64,
     /// `energy_gain`, `degenerate`, `jammed`, `unsolved`.
     pub flags: Vec<String>,
@@ -350,10 +384,13 @@ pub struct CaseOutput {
     /// of the orientation (deg), and the smallest eigenvalue of the scaled G.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub law: Option<String>,
+    /// The contact tolerance applied (m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_tolerance: Option<f64>,
+    /// The orientation's Bryan angles (deg).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bryan_deg: Option<[f64; 3]>,
+    /// The smallest eigenvalue of the scaled G.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_eigenvalue_scaled: Option<f64>,
 }
@@ -418,8 +455,11 @@ impl CaseOutput {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{name}: {}{message}", field.as_ref().map(|f| format!("{f}: ")).unwrap_or_default())]
 pub struct CaseError {
+    /// The input's name.
     pub name: String,
+    /// The field at fault, when one is.
     pub field: Option<String>,
+    /// What is wrong.
     pub message: String,
 }
 

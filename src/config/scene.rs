@@ -32,6 +32,7 @@ impl std::str::FromStr for Precision {
 }
 
 impl Precision {
+    /// The precision's name in files and tables: `f32`, `f64`.
     pub fn name(&self) -> &'static str {
         match self {
             Precision::F32 => "f32",
@@ -55,6 +56,7 @@ impl Sampling {
     /// Default replicates of `rqmc`.
     pub const DEFAULT_REPLICATES: u64 = 16;
 
+    /// The sampling's name in files and tables: `mc`, `rqmc`.
     pub fn name(&self) -> &'static str {
         match self {
             Sampling::Mc => "mc",
@@ -112,9 +114,13 @@ pub enum VectorDist {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}{}: {field}: {message}", .line.map(|l| format!(":{l}")).unwrap_or_default())]
 pub struct SceneError {
+    /// The scene file (or `<string>`, `<dict>`, ...).
     pub file: String,
+    /// The line of the field, where the TOML parser knows it.
     pub line: Option<usize>,
+    /// The field's dotted path, or the flag.
     pub field: String,
+    /// What is wrong, with the value.
     pub message: String,
 }
 
@@ -165,10 +171,16 @@ pub struct Contact {
 /// A drop placement: the box the centre is released from, uniformly.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DropBox {
+    /// The box's lowest corner (m).
     pub low: DVec3,
+    /// The box's highest corner (m).
     pub high: DVec3,
 }
 
+/// A validated scene: the body, the planes and how the body meets them,
+/// the distributions drawn from, the laws, the effects and the statistics.
+/// Built by [`load_scene`] or [`SceneText::scene`]; every field has been
+/// checked, so a run cannot fail on it.
 #[derive(Debug, Clone)]
 pub struct Scene {
     pub(super) name: String,
@@ -232,6 +244,7 @@ impl Scene {
         })
     }
 
+    /// The scene's name.
     pub fn name(&self) -> &str {
         &self.name
     }
@@ -243,15 +256,19 @@ impl Scene {
     pub fn effects(&self) -> &Effects {
         &self.effects
     }
+    /// Samples to run.
     pub fn samples(&self) -> u64 {
         self.samples
     }
+    /// The seed of the counter-based draws.
     pub fn seed(&self) -> u64 {
         self.seed
     }
+    /// The impact laws, in the order of the summary.
     pub fn laws(&self) -> &[Law] {
         &self.laws
     }
+    /// The lanes' precision.
     pub fn precision(&self) -> Precision {
         self.precision
     }
@@ -260,15 +277,19 @@ impl Scene {
     pub fn sampling(&self) -> Sampling {
         self.sampling
     }
+    /// Contact tolerance (m): planes this close count as touching.
     pub fn tolerance(&self) -> f64 {
         self.tolerance
     }
+    /// Samples per batch (the unit of parallel work and of shards).
     pub fn batch_size(&self) -> u64 {
         self.batch_size
     }
+    /// The ellipsoid.
     pub fn body(&self) -> &Ellipsoid {
         &self.body
     }
+    /// Every plane, in scene order.
     pub fn planes(&self) -> &[NamedPlane] {
         &self.planes
     }
@@ -325,12 +346,15 @@ impl Scene {
             .map(|&i| self.planes[i].plane)
             .collect()
     }
+    /// The orientation's distribution.
     pub fn orientation(&self) -> OrientationDist {
         self.orientation
     }
+    /// The centre velocity's distribution (world, m/s).
     pub fn velocity(&self) -> VectorDist {
         self.velocity
     }
+    /// The angular velocity's distribution (body, rad/s).
     pub fn angular_velocity(&self) -> VectorDist {
         self.angular_velocity
     }
@@ -382,9 +406,13 @@ pub struct Overrides {
     pub per_sample: bool,
     /// `--columns`: per-sample columns to keep.
     pub columns: Option<Vec<String>>,
+    /// `--samples`.
     pub samples: Option<u64>,
+    /// `--seed`.
     pub seed: Option<u64>,
+    /// `--law` (names, each checked against the scene).
     pub laws: Option<Vec<String>>,
+    /// `--precision`.
     pub precision: Option<Precision>,
     /// `--quantiles`: replaces `[statistics] quantiles`.
     pub quantiles: Option<Vec<String>>,
@@ -395,6 +423,7 @@ pub struct Overrides {
 }
 
 impl Overrides {
+    /// Writes the overrides into a raw scene, before validation.
     pub fn apply(&self, raw: &mut RawScene) {
         if let Some(s) = self.samples {
             raw.samples = s;
@@ -437,7 +466,9 @@ impl Overrides {
 /// from a path, or given as it is (a front end's string).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SceneText {
+    /// Where the text came from, for errors.
     pub file: String,
+    /// The TOML.
     pub text: String,
 }
 
@@ -451,6 +482,7 @@ impl SceneText {
     }
 
     /// Scene text given as it is; `file` names it in errors (`<string>`).
+    #[must_use]
     pub fn new(file: impl Into<String>, text: impl Into<String>) -> Self {
         Self {
             file: file.into(),

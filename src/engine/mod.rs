@@ -137,6 +137,8 @@ pub struct Watch {
 }
 
 impl Watch {
+    /// A watch with nothing done, to share with a run.
+    #[must_use]
     pub fn new() -> Arc<Self> {
         Arc::new(Self::default())
     }
@@ -166,6 +168,7 @@ impl Watch {
         self.cancel.store(true, Ordering::Relaxed);
     }
 
+    /// Whether [`Watch::cancel`] was called.
     pub fn cancelled(&self) -> bool {
         self.cancel.load(Ordering::Relaxed)
     }
@@ -392,10 +395,13 @@ fn run_tree(
 /// Why a run stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// The worker threads could not be started.
     #[error("thread pool: {0}")]
     Pool(#[from] rayon::ThreadPoolBuildError),
+    /// The per-sample rows could not be taken (a full disk, say).
     #[error("per-sample output: {0}")]
     Sink(#[source] SinkError),
+    /// [`Watch::cancel`] stopped the run.
     #[error("the run was cancelled")]
     Cancelled,
 }

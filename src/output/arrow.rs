@@ -25,6 +25,7 @@ pub struct MemoryRows {
 }
 
 impl MemoryRows {
+    /// No rows yet, for the selected columns (`sweep`: with a `point` key).
     pub fn new(selection: Selection, sweep: bool) -> Self {
         let schema = Arc::new(schema_of(&selection, sweep));
         Self {
@@ -73,11 +74,14 @@ impl MemoryRows {
 /// `samples.parquet`'s schema, in sample order) or a summary table.
 #[derive(Debug, Clone)]
 pub struct ArrowTable {
+    /// The columns' names and types.
     pub schema: SchemaRef,
+    /// The rows, batch by batch.
     pub batches: Vec<RecordBatch>,
 }
 
 impl ArrowTable {
+    /// Rows in all batches.
     pub fn rows(&self) -> usize {
         self.batches.iter().map(|b| b.num_rows()).sum()
     }

@@ -11,22 +11,36 @@ use polars::prelude::PolarsError;
 /// Why outputs could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
+    /// A file or folder could not be made, written or renamed.
     #[error("output folder {path}: {source}")]
     Io {
+        /// The file or folder.
         path: String,
+        /// What the system said.
         #[source]
         source: std::io::Error,
     },
+    /// The folder holds a run and overwriting was not asked for.
     #[error("output folder {0} already holds a run; pass --force to overwrite it")]
     Exists(String),
+    /// A plot could not be drawn.
     #[error("drawing {path}: {message}")]
-    Plot { path: String, message: String },
+    Plot {
+        /// The SVG file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// A Parquet table could not be written.
     #[error("writing {path}: {source}")]
     Parquet {
+        /// The Parquet file.
         path: String,
+        /// What polars said.
         #[source]
         source: PolarsError,
     },
+    /// The run was kept in memory and has no folder to write.
     #[error("this run was kept in memory: it has no output folder to write")]
     NoFolder,
 }

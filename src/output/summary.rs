@@ -15,21 +15,30 @@ use crate::stats::{Moments, RatioOfSums, Stat};
 /// quantiles`, paired differences).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct StatSummary {
+    /// Values the statistic has.
     pub n: u64,
+    /// Their mean (NaN without values).
     #[serde(deserialize_with = "nan_if_null")]
     pub mean: f64,
+    /// The 95 % half-width of the mean (from the replicates under RQMC).
     #[serde(deserialize_with = "nan_if_null")]
     pub ci95: f64,
+    /// Their standard deviation.
     #[serde(deserialize_with = "nan_if_null")]
     pub sd: f64,
+    /// The smallest.
     #[serde(deserialize_with = "nan_if_null")]
     pub min: f64,
+    /// The 1st percentile (with quantiles kept).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub p01: Option<f64>,
+    /// The median (with quantiles kept).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub median: Option<f64>,
+    /// The 99th percentile (with quantiles kept).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub p99: Option<f64>,
+    /// The largest.
     #[serde(deserialize_with = "nan_if_null")]
     pub max: f64,
     /// RQMC only: what the replicates bought, the variance of this mean
@@ -51,6 +60,7 @@ impl FromNull for PairSummary {}
 impl FromNull for DropSummary {}
 
 impl StatSummary {
+    /// The summary of moments alone (no quantiles).
     pub fn from_moments(m: &Moments) -> Self {
         let n = m.count();
         let nan_if_empty = |x: f64| if n == 0 { f64::NAN } else { x };
@@ -113,21 +123,29 @@ impl StatSummary {
 /// for all samples, the fractions flagged and per active set.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct GroupSummary {
+    /// Samples in the group.
     pub samples: u64,
+    /// Samples with an approaching contact.
     pub impacts: u64,
+    /// The statistics, by name (`energy_ratio`, `omega_after_norm`, ...).
     pub stats: Named<StatSummary>,
+    /// The fractions of samples flagged, by flag.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub fractions: Named<f64>,
+    /// Their 95 % half-widths.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub fractions_ci95: Named<f64>,
+    /// By active set (the planes that took an impulse): the fraction of samples.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets: Named<f64>,
     /// RQMC only: the fractions' gains, and the active sets' intervals and
     /// gains (from the replicates, like every interval of such a run).
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub fractions_gain: Named<f64>,
+    /// RQMC only: the active sets' 95 % half-widths.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets_ci95: Named<f64>,
+    /// RQMC only: the active sets' gains.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets_gain: Named<f64>,
 }
@@ -158,20 +176,25 @@ impl GroupSummary {
 /// `by_active_set`).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct LawSummary {
+    /// `all`, then each active set present (with `by_active_set`).
     pub groups: Named<GroupSummary>,
 }
 
 /// Paired differences `law − laws[0]` over the samples where both impact.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct PairSummary {
+    /// The energy ratio's difference.
     pub energy_ratio: StatSummary,
+    /// |ω⁺|'s difference.
     pub omega_after_norm: StatSummary,
+    /// |v⁺|'s difference.
     pub velocity_after_norm: StatSummary,
     /// The fraction of samples where one law of the pair raises
     /// energy_gain and the other does not, by the law that does (absent
     /// from summaries written before 0.11.0 for drop scenes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy_gain_only: Option<Named<f64>>,
+    /// Their 95 % half-widths.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy_gain_only_ci95: Option<Named<f64>>,
 }
@@ -179,14 +202,20 @@ pub struct PairSummary {
 /// How a drop scene's samples ended, as fractions of its samples.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Endings {
+    /// No further impact within the horizon.
     #[serde(deserialize_with = "nan_if_null")]
     pub flew_away: f64,
+    /// Energy after an impact below `energy_floor` of the first impact's.
     #[serde(deserialize_with = "nan_if_null")]
     pub came_to_rest: f64,
+    /// Reached the bounce limit.
     #[serde(deserialize_with = "nan_if_null")]
     pub bounce_limit: f64,
+    /// An impact the reference could not solve.
     #[serde(deserialize_with = "nan_if_null")]
     pub unsolved: f64,
+    /// Repeated touches without approach (a resting or rolling contact
+    /// that free flight cannot follow).
     #[serde(deserialize_with = "nan_if_null")]
     pub stalled: f64,
 }
@@ -194,10 +223,13 @@ pub struct Endings {
 /// Which body axis ended closest to vertical, as fractions of the samples.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct AxisUp {
+    /// The first semi-axis.
     #[serde(deserialize_with = "nan_if_null")]
     pub a: f64,
+    /// The second.
     #[serde(deserialize_with = "nan_if_null")]
     pub b: f64,
+    /// The third.
     #[serde(deserialize_with = "nan_if_null")]
     pub c: f64,
 }
@@ -205,8 +237,11 @@ pub struct AxisUp {
 /// A sequence of sets of planes hit over a drop's first impacts.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct SequenceSummary {
+    /// The sets, first to last (`wall_x > floor+wall_y`).
     pub sequence: String,
+    /// Samples with it.
     pub count: u64,
+    /// Their fraction of the samples.
     #[serde(deserialize_with = "nan_if_null")]
     pub fraction: f64,
 }
@@ -214,44 +249,62 @@ pub struct SequenceSummary {
 /// The k-th impact of a drop, over the samples that reached it.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct BounceSummary {
+    /// The impact's number, from 1.
     pub bounce: usize,
+    /// Samples that reached it.
     pub reached: u64,
+    /// Their fraction of the samples.
     #[serde(deserialize_with = "nan_if_null")]
     pub fraction_of_samples: f64,
     /// By set of planes that took an impulse, of the samples reaching it.
     pub planes_hit: Named<f64>,
+    /// Energy after / before.
     pub energy_ratio: StatSummary,
+    /// Time since the previous impact (s).
     pub interval_seconds: StatSummary,
+    /// |v| before (m/s).
     pub speed_before: StatSummary,
     /// By tolerance (metres, `1e-9`): the fraction whose second-nearest
     /// plane was within it at the impact.
     pub simultaneous_within_tolerance: Named<f64>,
+    /// Impacts flagged energy_gain.
     pub energy_gain: u64,
+    /// Impacts flagged degenerate.
     pub degenerate: u64,
 }
 
 /// One law's bounces in a drop scene ([`drop_summary`]).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct DropSummary {
+    /// Samples run under the law.
     pub samples: u64,
     /// By number of impacts: the fraction of samples with that many.
     pub impacts_per_sample: Named<f64>,
+    /// How the samples ended.
     #[serde(flatten)]
     pub endings: Endings,
+    /// Which body axis ended nearest vertical.
     pub final_axis_up: AxisUp,
+    /// The first impacts a sequence covers.
     pub sequence_impacts: usize,
     /// Most frequent first.
     pub sequences: Vec<SequenceSummary>,
+    /// Per impact number, from the first.
     pub bounces: Vec<BounceSummary>,
     /// Flights and impacts the lanes left to the f64 reference.
     pub reference_flights: u64,
+    /// Impacts the lanes left to the f64 reference.
     pub reference_impacts: u64,
 }
 
+/// How fast a run went.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Throughput {
+    /// Samples per wall-clock second.
     pub samples_per_second: f64,
+    /// Wall-clock time (s).
     pub wall_seconds: f64,
+    /// Process CPU time (s), where the system reports it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cpu_seconds: Option<f64>,
 }
@@ -261,24 +314,33 @@ pub struct Throughput {
 pub struct SamplingSummary {
     /// `rqmc`.
     pub method: String,
+    /// Independent scramblings.
     pub replicates: u64,
+    /// Points per replicate.
     pub samples_per_replicate: u64,
 }
 
 /// The public JSON of `impactmc run --format json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Summary {
+    /// The scene's name.
     pub scene: String,
+    /// Samples run.
     pub samples: u64,
+    /// The seed.
     pub seed: u64,
     /// RQMC: the replicates; every interval then comes from their spread.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sampling: Option<SamplingSummary>,
+    /// `f32` or `f64`.
     pub precision: String,
+    /// Worker threads.
     pub threads: usize,
+    /// How fast.
     pub throughput: Throughput,
     /// The recorded planes, in scene order: the names active sets use.
     pub contacts: Vec<String>,
+    /// Per law, its groups.
     pub laws: Named<LawSummary>,
     /// `LAW-FIRST`: paired differences against the first law, same samples.
     #[serde(default, skip_serializing_if = "Named::is_empty")]

@@ -30,7 +30,10 @@ pub enum Law {
     Poisson,
     /// Law 4, projected Gauss–Seidel on law 2: `sweeps` sweeps from λ = 0,
     /// contacts in index order.
-    Pgs { sweeps: u32 },
+    Pgs {
+        /// Gauss–Seidel sweeps.
+        sweeps: u32,
+    },
     /// Energetic restitution (friction.md, law 4): Darboux–Keller
     /// integration in the normal impulse, one touching contact. Without
     /// friction it is `newton`.

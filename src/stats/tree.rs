@@ -185,7 +185,9 @@ impl Reduction {
 /// Shard `index` of `count`: a contiguous share of the batch indices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
+    /// This shard, from 0.
     pub index: u64,
+    /// Shards in the run.
     pub count: u64,
 }
 
