@@ -14,6 +14,7 @@ mod replicated;
 pub mod samples;
 pub mod shard;
 mod staging;
+mod stat_summary;
 pub mod summary;
 mod tables;
 mod text;
