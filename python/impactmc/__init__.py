@@ -54,8 +54,10 @@ def solve(case: Union[Mapping[str, Any], PathLike, str]) -> dict:
     if isinstance(case, Mapping):
         out = _impactmc._solve("<dict>", json.dumps(dict(case)), True)
     elif isinstance(case, os.PathLike) or (
+        # One line that is neither JSON nor a TOML key = value: a path (a
+        # missing file raises FileNotFoundError, not a parse error).
         isinstance(case, str) and "\n" not in case and not case.lstrip().startswith("{")
-        and os.path.exists(case)
+        and ("=" not in case or os.path.exists(case))
     ):
         path = os.fspath(case)
         with open(path, encoding="utf-8") as f:

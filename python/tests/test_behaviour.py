@@ -78,6 +78,11 @@ def test_bad_input_raises_input_error_naming_the_field(fields, field, words):
     assert words in str(e.value)
 
 
+def test_solve_of_a_missing_file_raises_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        impactmc.solve(str(tmp_path / "typo.toml"))
+
+
 def test_replace_takes_a_sweep_s_paths():
     """A plane by name, as a sweep addresses it, and by index."""
     s = impactmc.Scene.from_str(FLOOR)

@@ -11,6 +11,46 @@ pub mod stress;
 use impactmc::output::OutputError;
 use impactmc::study::{message_chain, StudyError};
 
+/// A count as people write it: `1000000`, `1_000_000` or `1e6` (digits,
+/// then optionally `e` and an exponent). Anything else (`1.5e3`, `-5`, a
+/// count above 2^64 − 1) is an error that says what a count looks like.
+pub fn parse_count(s: &str) -> Result<u64, String> {
+    let bad = || format!("{s:?} is not a count: write 1000000, 1_000_000 or 1e6");
+    let t = s.trim().replace('_', "");
+    let (mantissa, exponent) = match t.split_once(['e', 'E']) {
+        Some((m, e)) => (m, e),
+        None => (t.as_str(), "0"),
+    };
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    if !digits(mantissa) || !digits(exponent) {
+        return Err(bad());
+    }
+    let m: u64 = mantissa.parse().map_err(|_| bad())?;
+    let e: u32 = exponent.parse().map_err(|_| bad())?;
+    10u64
+        .checked_pow(e)
+        .and_then(|p| m.checked_mul(p))
+        .ok_or_else(bad)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_count;
+
+    #[test]
+    fn counts_take_underscores_and_exponents() {
+        assert_eq!(parse_count("1000000"), Ok(1_000_000));
+        assert_eq!(parse_count("1_000"), Ok(1000));
+        assert_eq!(parse_count("1e5"), Ok(100_000));
+        assert_eq!(parse_count("25E2"), Ok(2500));
+        assert_eq!(parse_count("18446744073709551615"), Ok(u64::MAX));
+        for bad in ["1.5e3", "-5", "ten", "1e30", "1e", "e5", "", "1e-3"] {
+            let e = parse_count(bad).unwrap_err();
+            assert!(e.contains("not a count") && e.contains("1e6"), "{bad}: {e}");
+        }
+    }
+}
+
 /// Summary format on stdout.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum Format {

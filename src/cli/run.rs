@@ -17,8 +17,9 @@ const DEFAULT_SCENE: &str = "configs/corner3.toml";
 pub struct RunArgs {
     /// Scene file (TOML). Default: configs/corner3.toml.
     scene: Option<PathBuf>,
-    /// Number of samples (overrides the scene's `samples`).
-    #[arg(long)]
+    /// Number of samples (overrides the scene's `samples`): 1000000,
+    /// 1_000_000 or 1e6.
+    #[arg(long, value_parser = super::parse_count)]
     samples: Option<u64>,
     /// Random seed (overrides the scene's `seed`).
     #[arg(long)]
@@ -26,8 +27,8 @@ pub struct RunArgs {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Impact law: paper, newton, poisson or pgsN. Repeatable; replaces the
-    /// scene's `laws`.
+    /// Impact law: paper, newton, poisson, pgsN or stronge. Repeatable;
+    /// replaces the scene's `laws`.
     #[arg(long = "law")]
     laws: Vec<String>,
     /// Kernel precision: f32 or f64 (overrides the scene's `precision`).

@@ -423,6 +423,32 @@ pub struct Overrides {
 }
 
 impl Overrides {
+    /// An error of a field these overrides set names the flag that set
+    /// it (`--law`, not the scene's line of `laws`).
+    pub fn blame(&self, e: SceneError) -> SceneError {
+        let root = e.field.split(['[', '.']).next().unwrap_or("");
+        let flag = match root {
+            "laws" if self.laws.is_some() => "--law",
+            "samples" if self.samples.is_some() => "--samples",
+            "seed" if self.seed.is_some() => "--seed",
+            "precision" if self.precision.is_some() => "--precision",
+            "sampling" if self.sampling.is_some() => "--sampling",
+            "replicates" if self.replicates.is_some() => "--replicates",
+            "statistics" if self.quantiles.is_some() && e.field.contains("quantiles") => {
+                "--quantiles"
+            }
+            "output" if self.columns.is_some() && e.field.contains("columns") => "--columns",
+            _ => return e,
+        };
+        // Keep the element: `--quantiles[1]`, `--law[0]`.
+        let element = e.field.find('[').map_or("", |i| &e.field[i..]);
+        SceneError {
+            line: None,
+            field: format!("{flag}{element}"),
+            ..e
+        }
+    }
+
     /// Writes the overrides into a raw scene, before validation.
     pub fn apply(&self, raw: &mut RawScene) {
         if let Some(s) = self.samples {
@@ -500,6 +526,7 @@ impl SceneText {
     /// The validated scene (without a sweep: see [`super::sweep::plan`]).
     pub fn scene(&self, overrides: &Overrides) -> Result<Scene, SceneError> {
         Scene::validate(&self.file, &self.text, self.raw(overrides)?)
+            .map_err(|e| overrides.blame(e))
     }
 }
 

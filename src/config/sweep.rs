@@ -119,6 +119,12 @@ pub fn plan_text(
     }
     let mut base = raw.clone();
     base.sweep = None;
+    // TOML integers are i64: a u64 seed above i64::MAX (from `--seed`)
+    // goes around the TOML form of the points, unless a sweep sets it.
+    let seed_swept = axes.iter().any(|a| a.path == "seed");
+    if !seed_swept {
+        base.seed = 0;
+    }
     let base_value =
         toml::Value::try_from(&base).map_err(|e| err(file, "(scene)", e.to_string()))?;
     let mut points = Vec::with_capacity(total);
@@ -138,14 +144,17 @@ pub fn plan_text(
                 .map_err(|m| err(file, &format!("sweep.{:?}", a.path), m))?;
             values.push((a.path.clone(), x));
         }
-        let point_raw: RawScene = doc
+        let mut point_raw: RawScene = doc
             .try_into()
             .map_err(|e: toml::de::Error| err(file, "sweep", e.message().to_string()))?;
+        if !seed_swept {
+            point_raw.seed = raw.seed;
+        }
         let scene = Scene::validate(file, text, point_raw).map_err(|mut e| {
             if !values.is_empty() {
                 e.message = format!("{} (at sweep point {values:?})", e.message);
             }
-            e
+            overrides.blame(e)
         })?;
         points.push(Point { values, scene });
     }

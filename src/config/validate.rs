@@ -419,10 +419,17 @@ impl Scene {
                 .iter()
                 .find(|&&i| planes[i].plane.friction() > 0.0)
             {
+                // Offer only the laws this scene takes: stronge needs one
+                // touching plane at contact.
+                let alternatives = if drop || touching.len() == 1 {
+                    "newton, paper, pgsN or stronge"
+                } else {
+                    "newton, paper or pgsN"
+                };
                 return Err(bad(
                     &["laws", &position(Law::Poisson)],
                     format!(
-                        "law poisson is not defined with friction, and plane {:?} has friction {}; use newton, paper, pgsN or stronge",
+                        "law poisson is not defined with friction, and plane {:?} has friction {}; use {alternatives}",
                         planes[i].name,
                         planes[i].plane.friction()
                     ),

@@ -109,7 +109,7 @@ fn quantiles_option_chooses_the_histograms() {
     assert_eq!(code, 2, "{err}");
     assert!(out.is_empty(), "{out}");
     assert!(
-        err.contains("statistics.quantiles[1]: unknown statistic \"spin\""),
+        err.contains("scene.toml: --quantiles[1]: unknown statistic \"spin\""),
         "{err}"
     );
 }
@@ -342,4 +342,91 @@ fn force_leaves_no_file_of_the_earlier_run() {
         std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
         "mine"
     );
+}
+
+/// Runs a shipped scene with flags; returns (exit code, stdout, stderr).
+fn run_flags(tag: &str, scene: &str, flags: &[&str]) -> (i32, String, String) {
+    let d = tmpdir(tag);
+    let out = bin()
+        .arg("run")
+        .arg(repo(scene))
+        .arg("--out")
+        .arg(d.join("out"))
+        .args(flags)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+/// `--samples` takes a count as people write it, and refuses a fraction
+/// with a message that says what a count looks like.
+#[test]
+fn samples_take_exponents_and_underscores() {
+    for (given, want) in [("2e4", 20_000), ("20_000", 20_000), ("20000", 20_000)] {
+        let (code, out, err) = run_flags(
+            "samples-forms",
+            "configs/floor.toml",
+            &["--samples", given, "--format", "json"],
+        );
+        assert_eq!(code, 0, "{given}: {err}");
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(v["samples"], want, "{given}");
+    }
+    let (code, _, err) = run_flags("samples-bad", "configs/floor.toml", &["--samples", "1.5e3"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("\"1.5e3\" is not a count"), "{err}");
+}
+
+/// Every u64 seed works: above i64::MAX it cannot be a TOML integer, and
+/// the flag does not go through one.
+#[test]
+fn seeds_above_i64_max_run() {
+    let seed = "9223372036854775808";
+    let (code, out, err) = run_flags(
+        "seed-u64",
+        "configs/floor.toml",
+        &["--samples", "2000", "--seed", seed, "--format", "json"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["seed"].as_u64(), Some(1u64 << 63));
+}
+
+/// A law the scene cannot use, given on the command line, is blamed on
+/// the flag, not on the scene file's `laws` line; and the refusal of
+/// `poisson` with friction offers only laws the scene takes.
+#[test]
+fn override_errors_name_the_flag() {
+    let (code, _, err) = run_flags("law-flag", "configs/corner3.toml", &["--law", "stronge"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("corner3.toml: --law[0]: law stronge takes one touching plane"),
+        "{err}"
+    );
+    let (code, _, err) = run_flags(
+        "poisson-friction",
+        "configs/corner3_friction.toml",
+        &["--law", "poisson"],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("use newton, paper or pgsN"), "{err}");
+    assert!(!err.contains("stronge"), "{err}");
+}
+
+#[test]
+fn run_help_lists_every_law() {
+    let out = bin().args(["run", "--help"]).output().unwrap();
+    let help = String::from_utf8(out.stdout).unwrap();
+    let law = help
+        .lines()
+        .skip_while(|l| !l.contains("--law"))
+        .take(3)
+        .collect::<String>();
+    for name in ["paper", "newton", "poisson", "pgsN", "stronge"] {
+        assert!(law.contains(name), "{name} missing from: {law}");
+    }
 }
