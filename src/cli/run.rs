@@ -10,12 +10,16 @@ use impactmc::study;
 
 use super::{report, Failure, Format};
 
-/// The scene `impactmc run` uses when given none.
-const DEFAULT_SCENE: &str = "configs/corner3.toml";
+/// The scene `impactmc run` uses when given none: built into the binary,
+/// so it runs from any folder.
+const DEFAULT_SCENE: &str = include_str!("../../configs/corner3.toml");
+/// The name errors give the built-in scene.
+const DEFAULT_SCENE_NAME: &str = "configs/corner3.toml (built in)";
 
 #[derive(clap::Args)]
 pub struct RunArgs {
-    /// Scene file (TOML). Default: configs/corner3.toml.
+    /// Scene file (TOML). Default: configs/corner3.toml, built into the
+    /// binary.
     scene: Option<PathBuf>,
     /// Number of samples (overrides the scene's `samples`): 1000000,
     /// 1_000_000 or 1e6.
@@ -82,10 +86,6 @@ pub struct RunArgs {
 }
 
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
-    let path = args
-        .scene
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(DEFAULT_SCENE));
     let overrides = Overrides {
         per_sample: args.per_sample,
         columns: args.columns.clone(),
@@ -118,7 +118,10 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     // Validate the scene (every sweep point) and the folder before any work;
     // what will run goes to stderr (stdout may be JSON).
-    let src = SceneText::read(&path).map_err(Failure::bad_input)?;
+    let src = match &args.scene {
+        Some(path) => SceneText::read(path).map_err(Failure::bad_input)?,
+        None => SceneText::new(DEFAULT_SCENE_NAME, DEFAULT_SCENE),
+    };
     let prepared = study::prepare(&src, &overrides, &opts)?;
     eprintln!("{}", prepared.effects_line);
     eprintln!("{}", prepared.kernel_line);

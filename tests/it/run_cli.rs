@@ -430,3 +430,28 @@ fn run_help_lists_every_law() {
         assert!(law.contains(name), "{name} missing from: {law}");
     }
 }
+
+/// Without a scene, `run` takes corner3 from the binary, so it runs from a
+/// folder that has no `configs/` (and gives the file's results).
+#[test]
+fn the_default_scene_is_built_in() {
+    let d = tmpdir("default-scene");
+    let out = bin()
+        .current_dir(&d)
+        .args(["run", "--samples", "1000", "--format", "json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!d.join("configs").exists());
+    assert!(d.join("results/corner3/manifest.json").exists());
+    let built_in: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (code, file, _) = run_text("default-scene-file", &corner3_text(), &["--format", "json"]);
+    assert_eq!(code, 0);
+    let file: serde_json::Value = serde_json::from_str(&file).unwrap();
+    assert_eq!(built_in["laws"], file["laws"]);
+    assert_eq!(built_in["scene"], "corner3");
+}
