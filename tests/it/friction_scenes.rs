@@ -153,9 +153,10 @@ fn rough_corner_is_thread_independent() {
 #[test]
 fn laws_that_friction_rules_out_are_refused() {
     let rough = ("restitution = 0.8\n", "restitution = 0.8\nfriction = 0.3\n");
+    // The laws come from the overrides, so the error names the flag.
     let err = edited("floor", &[rough], 1000, &["poisson"]).unwrap_err();
     assert!(
-        err.contains("poisson") && err.contains("floor") && err.contains("laws"),
+        err.contains("poisson") && err.contains("floor") && err.contains("--law[0]"),
         "{err}"
     );
     // Poisson is fine when no touching plane has friction.
