@@ -11,23 +11,33 @@ fn corner3_text() -> String {
     std::fs::read_to_string(repo("configs/corner3.toml")).unwrap()
 }
 
-/// Runs a scene text; returns (exit code, stdout, stderr).
+/// Runs a scene file into `out` with flags; returns (exit code, stdout,
+/// stderr).
+fn run_scene(scene: &Path, out: &Path, flags: &[&str]) -> (i32, String, String) {
+    let o = bin()
+        .arg("run")
+        .arg(scene)
+        .arg("--out")
+        .arg(out)
+        .args(flags)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap(),
+        String::from_utf8(o.stdout).unwrap(),
+        String::from_utf8(o.stderr).unwrap(),
+    )
+}
+
+/// Runs a scene text at 1000 samples; returns (exit code, stdout, stderr).
 fn run_text(tag: &str, text: &str, extra: &[&str]) -> (i32, String, String) {
     let d = tmpdir(tag);
     let scene = d.join("scene.toml");
     std::fs::write(&scene, text).unwrap();
-    let out = bin()
-        .arg("run")
-        .arg(&scene)
-        .args(["--samples", "1000", "--out"])
-        .arg(d.join("out"))
-        .args(extra)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap(),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
+    run_scene(
+        &scene,
+        &d.join("out"),
+        &[&["--samples", "1000"], extra].concat(),
     )
 }
 
@@ -346,20 +356,7 @@ fn force_leaves_no_file_of_the_earlier_run() {
 
 /// Runs a shipped scene with flags; returns (exit code, stdout, stderr).
 fn run_flags(tag: &str, scene: &str, flags: &[&str]) -> (i32, String, String) {
-    let d = tmpdir(tag);
-    let out = bin()
-        .arg("run")
-        .arg(repo(scene))
-        .arg("--out")
-        .arg(d.join("out"))
-        .args(flags)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap(),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
+    run_scene(&repo(scene), &tmpdir(tag).join("out"), flags)
 }
 
 /// `--samples` takes a count as people write it, and refuses a fraction
