@@ -473,10 +473,11 @@ pub(crate) fn count_rows(
                 .max_by(|a, b| a.1.total_cmp(b.1))
                 .map(|(k, v)| (k.clone(), *v))
                 .unwrap_or_default();
-            let share_ci95 = match all.active_sets_ci95.get(&share_name) {
-                Some(&ci) => ci,
-                None => crate::output::summary::proportion_ci95(share, all.samples),
-            };
+            // The interval's half-width, to compare with the mean's.
+            let share_ci95 = all
+                .active_sets_ci95
+                .get(&share_name)
+                .map_or(f64::NAN, |ci| ci.half_width());
             line += &format!(
                 " {sampling} {} samples {:.3} s, ci95 {:.2e} (share {share_ci95:.2e});",
                 r.acc.laws[0].samples, r.wall_seconds, er.ci95

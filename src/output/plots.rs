@@ -245,13 +245,7 @@ pub fn run_plots(
     let masks: Vec<usize> = (0..1usize << planes.len())
         .filter(|&m| acc.laws.iter().any(|a| a.active_sets[m] > 0))
         .collect();
-    let name = |m: usize| {
-        if m == 0 {
-            "none".to_string()
-        } else {
-            active_set_name(m, planes)
-        }
-    };
+    let name = |m: usize| active_set_name(m, planes);
     let series: Vec<(String, Vec<f64>)> = acc
         .laws
         .iter()

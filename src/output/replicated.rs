@@ -5,15 +5,19 @@
 
 use std::collections::HashMap;
 
-use crate::output::summary::{StatSummary, Summary};
+use crate::output::summary::{Interval, Named, StatSummary, Summary};
+use crate::stats::proportion;
 use crate::stats::student::replicate_interval;
 
-/// One estimate as the walk meets it: its path, its point value and its
-/// independent-sampling (normal) half-width.
+/// One estimate as the walk meets it: its path, its point value, its
+/// independent-sampling half-width, and whether it is a proportion (which
+/// a replicate without the entry has at 0: planes hit and sequences list
+/// only the counts seen).
 struct Estimate<'a> {
     path: &'a str,
     value: f64,
     mc_ci95: f64,
+    proportion: bool,
 }
 
 /// What the walk does at each estimate: `Some((ci95, gain))` replaces its
@@ -34,14 +38,22 @@ impl Summary {
             });
         }
         self.walk(&mut |e| {
-            let values = by_path.get(e.path).filter(|v| v.len() == r);
-            Some(values.map_or((f64::NAN, f64::NAN), |v| replicate_interval(v, e.mc_ci95)))
+            let mut values = by_path.get(e.path).cloned().unwrap_or_default();
+            if e.proportion && values.len() < r {
+                values.resize(r, 0.0);
+            }
+            Some(if values.len() == r {
+                replicate_interval(&values, e.mc_ci95)
+            } else {
+                (f64::NAN, f64::NAN)
+            })
         });
     }
 
     /// Every estimate with an interval: the statistics (means and ratios),
-    /// the fractions and active sets, the paired differences between laws
-    /// and a drop's per-bounce statistics.
+    /// the fractions and active sets, the paired differences between laws,
+    /// and a drop's per-bounce statistics and planes hit, endings and
+    /// sequences.
     fn walk(&mut self, f: &mut Visit) {
         for (law, ls) in self.laws.0.iter_mut() {
             for (group, g) in ls.groups.0.iter_mut() {
@@ -49,34 +61,20 @@ impl Summary {
                 for (name, st) in g.stats.0.iter_mut() {
                     stat(&format!("{at}/stats/{name}"), st, f);
                 }
-                let names: Vec<String> = g.fractions.keys().cloned().collect();
-                for name in names {
-                    let value = g.fractions[name.as_str()];
-                    let mc_ci95 = g.fractions_ci95.get(&name).copied().unwrap_or(f64::NAN);
-                    let path = format!("{at}/fractions/{name}");
-                    if let Some((ci, gain)) = f(Estimate {
-                        path: &path,
-                        value,
-                        mc_ci95,
-                    }) {
-                        g.fractions_ci95.set(&name, ci);
-                        g.fractions_gain.set(&name, gain);
-                    }
-                }
-                let n = g.samples as f64;
-                let names: Vec<String> = g.active_sets.keys().cloned().collect();
-                for name in names {
-                    let p = g.active_sets[name.as_str()];
-                    let path = format!("{at}/active_sets/{name}");
-                    if let Some((ci, gain)) = f(Estimate {
-                        path: &path,
-                        value: p,
-                        mc_ci95: 1.959_963_984_540_054 * (p * (1.0 - p) / n).sqrt(),
-                    }) {
-                        g.active_sets_ci95.set(&name, ci);
-                        g.active_sets_gain.set(&name, gain);
-                    }
-                }
+                shares(
+                    &format!("{at}/fractions"),
+                    &g.fractions,
+                    &mut g.fractions_ci95,
+                    Some(&mut g.fractions_gain),
+                    f,
+                );
+                shares(
+                    &format!("{at}/active_sets"),
+                    &g.active_sets,
+                    &mut g.active_sets_ci95,
+                    Some(&mut g.active_sets_gain),
+                    f,
+                );
             }
         }
         for (pair, p) in self.paired.0.iter_mut() {
@@ -93,17 +91,7 @@ impl Summary {
                 f,
             );
             if let (Some(only), Some(cis)) = (&p.energy_gain_only, &mut p.energy_gain_only_ci95) {
-                for (law, &value) in only.iter() {
-                    let mc_ci95 = cis.get(law).copied().unwrap_or(f64::NAN);
-                    let path = format!("{at}/energy_gain_only/{law}");
-                    if let Some((ci, _)) = f(Estimate {
-                        path: &path,
-                        value,
-                        mc_ci95,
-                    }) {
-                        cis.set(law, ci);
-                    }
-                }
+                shares(&format!("{at}/energy_gain_only"), only, cis, None, f);
             }
         }
         for (law, d) in self.drops.0.iter_mut() {
@@ -116,9 +104,78 @@ impl Summary {
                     f,
                 );
                 stat(&format!("{at}/speed_before"), &mut b.speed_before, f);
+                shares(
+                    &format!("{at}/planes_hit"),
+                    &b.planes_hit,
+                    &mut b.planes_hit_ci95,
+                    None,
+                    f,
+                );
+            }
+            let e = &d.endings;
+            let endings = Named(
+                [
+                    ("flew_away", e.flew_away),
+                    ("came_to_rest", e.came_to_rest),
+                    ("bounce_limit", e.bounce_limit),
+                    ("unsolved", e.unsolved),
+                    ("stalled", e.stalled),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+            );
+            shares(
+                &format!("drops/{law}/endings"),
+                &endings,
+                &mut d.endings_ci95,
+                None,
+                f,
+            );
+            for q in d.sequences.iter_mut() {
+                let path = format!("drops/{law}/sequences/{}", q.sequence);
+                share(&path, q.fraction, &mut q.ci95, f);
             }
         }
     }
+}
+
+/// Proportions by name as estimates: each interval from the replicates
+/// ([`share`]), and the gains where asked for.
+fn shares(
+    at: &str,
+    values: &Named<f64>,
+    cis: &mut Named<Interval>,
+    mut gains: Option<&mut Named<f64>>,
+    f: &mut Visit,
+) {
+    for (name, &p) in values.iter() {
+        let mut ci = cis.get(name).copied().unwrap_or(Interval::NAN);
+        if let Some(gain) = share(&format!("{at}/{name}"), p, &mut ci, f) {
+            cis.set(name, ci);
+            if let Some(g) = gains.as_deref_mut() {
+                g.set(name, gain);
+            }
+        }
+    }
+}
+
+/// A proportion as an estimate, `ci` its interval from the pooled count
+/// (Wilson's), whose half-width stands for independent sampling's in the
+/// gain. The replicates' interval replaces it, except for a count of none
+/// (or of all), where the replicates agree and the pooled bound stays
+/// ([`proportion::replicated`]); its gain is then undefined.
+fn share(path: &str, p: f64, ci: &mut Interval, f: &mut Visit) -> Option<f64> {
+    let pooled = *ci;
+    let (half, gain) = f(Estimate {
+        path,
+        value: p,
+        mc_ci95: pooled.half_width(),
+        proportion: true,
+    })?;
+    *ci = Interval(proportion::replicated(p, half, pooled.0));
+    let edge = pooled.low() == 0.0 || pooled.high() == 1.0;
+    Some(if edge { f64::NAN } else { gain })
 }
 
 /// A statistic's mean as an estimate.
@@ -127,6 +184,7 @@ fn stat(path: &str, st: &mut StatSummary, f: &mut Visit) {
         path,
         value: st.mean,
         mc_ci95: st.ci95,
+        proportion: false,
     }) {
         st.ci95 = ci;
         st.gain = Some(gain);

@@ -107,3 +107,48 @@ impl StatSummary {
         out
     }
 }
+
+/// A 95 % interval `[low, high]` on a proportion: Wilson's score interval
+/// of the count, or under RQMC the replicates' ([`crate::stats::proportion`]).
+/// JSON: a two-element array, whose undefined ends (no samples) are null
+/// and read back as NaN.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interval(pub [f64; 2]);
+
+impl Interval {
+    /// Undefined: no samples.
+    pub const NAN: Interval = Interval([f64::NAN, f64::NAN]);
+
+    /// Wilson's interval of `k` in `n`.
+    pub fn wilson(k: u64, n: u64) -> Self {
+        Self(crate::stats::proportion::wilson(k, n))
+    }
+
+    /// The lower end.
+    pub fn low(&self) -> f64 {
+        self.0[0]
+    }
+
+    /// The upper end.
+    pub fn high(&self) -> f64 {
+        self.0[1]
+    }
+
+    /// Half its width.
+    pub fn half_width(&self) -> f64 {
+        0.5 * (self.0[1] - self.0[0])
+    }
+}
+
+impl Serialize for Interval {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Interval {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let [a, b] = <[Option<f64>; 2]>::deserialize(d)?;
+        Ok(Self([a.unwrap_or(f64::NAN), b.unwrap_or(f64::NAN)]))
+    }
+}

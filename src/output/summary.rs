@@ -10,13 +10,18 @@ use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
 use crate::stats::RunResult;
 
 use super::stat_summary::nan_if_null;
-pub use super::stat_summary::StatSummary;
+pub use super::stat_summary::{Interval, StatSummary};
 
 impl FromNull for StatSummary {}
 impl FromNull for GroupSummary {}
 impl FromNull for LawSummary {}
 impl FromNull for PairSummary {}
 impl FromNull for DropSummary {}
+impl FromNull for Interval {
+    fn from_null() -> Option<Self> {
+        Some(Interval::NAN)
+    }
+}
 
 /// One set of samples (all, or one active set): counts, statistics and,
 /// for all samples, the fractions flagged and per active set.
@@ -31,19 +36,20 @@ pub struct GroupSummary {
     /// The fractions of samples flagged, by flag.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub fractions: Named<f64>,
-    /// Their 95 % half-widths.
+    /// Their 95 % intervals `[low, high]` ([`Interval`]).
     #[serde(default, skip_serializing_if = "Named::is_empty")]
-    pub fractions_ci95: Named<f64>,
-    /// By active set (the planes that took an impulse): the fraction of samples.
+    pub fractions_ci95: Named<Interval>,
+    /// By active set (the planes that took an impulse; `(none)` for
+    /// none): the fraction of samples.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets: Named<f64>,
-    /// RQMC only: the fractions' gains, and the active sets' intervals and
-    /// gains (from the replicates, like every interval of such a run).
+    /// RQMC only: the fractions' gains (the intervals then come from the
+    /// replicates, like every interval of such a run).
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub fractions_gain: Named<f64>,
-    /// RQMC only: the active sets' 95 % half-widths.
+    /// The active sets' 95 % intervals `[low, high]`.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
-    pub active_sets_ci95: Named<f64>,
+    pub active_sets_ci95: Named<Interval>,
     /// RQMC only: the active sets' gains.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub active_sets_gain: Named<f64>,
@@ -93,9 +99,9 @@ pub struct PairSummary {
     /// from summaries written before 0.11.0 for drop scenes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy_gain_only: Option<Named<f64>>,
-    /// Their 95 % half-widths.
+    /// Their 95 % intervals `[low, high]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub energy_gain_only_ci95: Option<Named<f64>>,
+    pub energy_gain_only_ci95: Option<Named<Interval>>,
 }
 
 /// How a drop scene's samples ended, as fractions of its samples.
@@ -143,6 +149,8 @@ pub struct SequenceSummary {
     /// Their fraction of the samples.
     #[serde(deserialize_with = "nan_if_null")]
     pub fraction: f64,
+    /// Its 95 % interval `[low, high]`.
+    pub ci95: Interval,
 }
 
 /// The k-th impact of a drop, over the samples that reached it.
@@ -157,6 +165,8 @@ pub struct BounceSummary {
     pub fraction_of_samples: f64,
     /// By set of planes that took an impulse, of the samples reaching it.
     pub planes_hit: Named<f64>,
+    /// Their 95 % intervals `[low, high]`.
+    pub planes_hit_ci95: Named<Interval>,
     /// Energy after / before.
     pub energy_ratio: StatSummary,
     /// Time since the previous impact (s).
@@ -182,6 +192,8 @@ pub struct DropSummary {
     /// How the samples ended.
     #[serde(flatten)]
     pub endings: Endings,
+    /// Their 95 % intervals `[low, high]`, by ending.
+    pub endings_ci95: Named<Interval>,
     /// Which body axis ended nearest vertical.
     pub final_axis_up: AxisUp,
     /// The first impacts a sequence covers.
@@ -275,10 +287,11 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
         .enumerate()
         .map(|(k, b)| {
             let of_reached = |c: u64| c as f64 / b.reached.max(1) as f64;
-            let mut planes_hit = Named::default();
+            let (mut planes_hit, mut planes_hit_ci95) = (Named::default(), Named::default());
             for (mask, &c) in b.sets.iter().enumerate() {
                 if c > 0 {
                     planes_hit.insert(active_set_name(mask, names), of_reached(c));
+                    planes_hit_ci95.insert(active_set_name(mask, names), Interval::wilson(c, b.reached));
                 }
             }
             let mut within = Named::default();
@@ -290,6 +303,7 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
                 reached: b.reached,
                 fraction_of_samples: b.reached as f64 / n,
                 planes_hit,
+                planes_hit_ci95,
                 energy_ratio: StatSummary::from_moments(&b.energy_ratio),
                 interval_seconds: StatSummary::from_moments(&b.interval),
                 speed_before: StatSummary::from_moments(&b.speed_before),
@@ -300,6 +314,18 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
         })
         .collect();
     let ended = |e: Ending| a.endings[e as usize] as f64 / n;
+    let endings_ci95 = Named(
+        [
+            ("flew_away", Ending::FlewAway),
+            ("came_to_rest", Ending::CameToRest),
+            ("bounce_limit", Ending::BounceLimit),
+            ("unsolved", Ending::Unsolved),
+            ("stalled", Ending::Stalled),
+        ]
+        .into_iter()
+        .map(|(name, e)| (name.to_string(), Interval::wilson(a.endings[e as usize], a.samples)))
+        .collect(),
+    );
     let up = |k: usize| a.final_axis_up[k] as f64 / n;
     DropSummary {
         samples: a.samples,
@@ -317,6 +343,7 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
             unsolved: ended(Ending::Unsolved),
             stalled: ended(Ending::Stalled),
         },
+        endings_ci95,
         final_axis_up: AxisUp {
             a: up(0),
             b: up(1),
@@ -330,6 +357,7 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
                 sequence: sequence_name(&a.sequence_masks(cell), names),
                 count: c,
                 fraction: c as f64 / n,
+                ci95: Interval::wilson(c, a.samples),
             })
             .collect(),
         bounces,
@@ -338,8 +366,12 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
     }
 }
 
-/// `+`-joined names of the planes in an active-set mask, in scene order.
+/// `+`-joined names of the planes in an active-set mask, in scene order;
+/// `(none)` for the empty set.
 pub fn active_set_name(mask: usize, names: &[String]) -> String {
+    if mask == 0 {
+        return "(none)".into();
+    }
     names
         .iter()
         .enumerate()
@@ -349,19 +381,12 @@ pub fn active_set_name(mask: usize, names: &[String]) -> String {
         .join("+")
 }
 
-/// The 95 % half-width of a proportion `p` of `n` samples (normal
-/// approximation).
-pub fn proportion_ci95(p: f64, n: u64) -> f64 {
-    1.96 * (p * (1.0 - p) / n as f64).sqrt()
-}
-
-/// Proportion and its 95 % half-width (normal approximation).
-pub fn proportion(k: u64, n: u64) -> (f64, f64) {
+/// The proportion `k/n` and its 95 % interval (Wilson's); NaN for `n = 0`.
+pub fn proportion(k: u64, n: u64) -> (f64, Interval) {
     if n == 0 {
-        return (f64::NAN, f64::NAN);
+        return (f64::NAN, Interval::NAN);
     }
-    let p = k as f64 / n as f64;
-    (p, proportion_ci95(p, n))
+    (k as f64 / n as f64, Interval::wilson(k, n))
 }
 
 /// The three headline statistics, by name.
@@ -438,12 +463,11 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             add(format!("sticking_{name}"), fr.sticking[i], fr.active[i]);
         }
     }
-    let mut active_sets = Named::default();
+    let (mut active_sets, mut active_sets_ci95) = (Named::default(), Named::default());
     for (mask, &k) in acc.active_sets.iter().enumerate() {
-        active_sets.insert(
-            active_set_name(mask, contacts),
-            proportion(k, acc.samples).0,
-        );
+        let (p, ci) = proportion(k, acc.samples);
+        active_sets.insert(active_set_name(mask, contacts), p);
+        active_sets_ci95.insert(active_set_name(mask, contacts), ci);
     }
     let mut groups = Named::default();
     groups.insert(
@@ -455,6 +479,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
             fractions,
             fractions_ci95: cis,
             active_sets,
+            active_sets_ci95,
             ..GroupSummary::empty()
         },
     );
@@ -462,14 +487,8 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         if g.samples == 0 || !by_active_set {
             continue;
         }
-        let name = active_set_name(mask, contacts);
-        let key = if name.is_empty() {
-            "(none)".to_string()
-        } else {
-            name
-        };
         groups.insert(
-            key,
+            active_set_name(mask, contacts),
             GroupSummary {
                 samples: g.samples,
                 impacts: g.impacts,

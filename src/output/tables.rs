@@ -4,7 +4,7 @@
 use polars::prelude::*;
 
 use crate::output::staging::{OutputError, Staging};
-use crate::output::summary::{proportion, Named, StatSummary, Summary};
+use crate::output::summary::{proportion, Interval, Named, StatSummary, Summary};
 use crate::stats::accumulators::LawAcc;
 
 /// Column name of a swept field: `sweep_` and the path with every run of
@@ -54,11 +54,11 @@ fn stat_units(name: &str) -> &'static str {
 }
 
 /// One (law, contact set) row: its statistics (those with every moment
-/// defined), fractions and their CIs.
+/// defined), fractions, their intervals and (RQMC) gains.
 type Row<'a> = (
     std::collections::HashMap<&'a str, &'a StatSummary>,
     Named<f64>,
-    Named<f64>,
+    Named<Interval>,
     Named<f64>,
 );
 
@@ -71,8 +71,11 @@ const STAT_FIELDS: [&str; 10] = [
 /// (law, bounce) with the bounce statistics. Columns `law`, `contact_set`
 /// (`all`, `(none)` or the `+`-joined active planes), `bounce` (drop
 /// scenes only; null on the first-impact rows), `samples`, `impacts`, then `STAT_FIELD` for every statistic (null where a
-/// group keeps no quantiles), and `fraction_FLAG` / `fraction_FLAG_ci95` on
-/// the "all" rows; an RQMC run adds `STAT_gain` and `fraction_FLAG_gain`. Units are in the file's key-value metadata (`units`).
+/// group keeps no quantiles), and on the "all" rows `fraction_FLAG` with
+/// its 95 % interval `fraction_FLAG_low` / `fraction_FLAG_high`, the same
+/// for every active set (`fraction_active_set_SET`); an RQMC run adds
+/// `STAT_gain` and `fraction_FLAG_gain`. Units are in the file's key-value
+/// metadata (`units`).
 fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
     let mut law_col = Vec::new();
     let mut group_col = Vec::new();
@@ -97,17 +100,27 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                     stats.insert(name.as_str(), st);
                 }
             }
-            for name in g.fractions.keys() {
+            let (mut fractions, mut cis, mut gains) = (
+                g.fractions.clone(),
+                g.fractions_ci95.clone(),
+                g.fractions_gain.clone(),
+            );
+            for (set, &p) in g.active_sets.iter() {
+                let name = format!("active_set_{set}");
+                fractions.insert(name.clone(), p);
+                if let Some(&ci) = g.active_sets_ci95.get(set) {
+                    cis.insert(name.clone(), ci);
+                }
+                if let Some(&gain) = g.active_sets_gain.get(set) {
+                    gains.insert(name, gain);
+                }
+            }
+            for name in fractions.keys() {
                 if !fraction_names.contains(name) {
                     fraction_names.push(name.clone());
                 }
             }
-            rows.push((
-                stats,
-                g.fractions.clone(),
-                g.fractions_ci95.clone(),
-                g.fractions_gain.clone(),
-            ));
+            rows.push((stats, fractions, cis, gains));
             bounce_col.push(None);
         }
         // A drop scene's bounces: one row each, over the samples reaching it.
@@ -191,11 +204,13 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
             .map(|r| r.1.get(name).copied().filter(|x| x.is_finite()))
             .collect();
         cols.push(Column::new(format!("fraction_{name}").into(), v));
-        let v: Vec<Option<f64>> = rows
-            .iter()
-            .map(|r| r.2.get(name).copied().filter(|x| x.is_finite()))
-            .collect();
-        cols.push(Column::new(format!("fraction_{name}_ci95").into(), v));
+        for (end, k) in [("low", 0), ("high", 1)] {
+            let v: Vec<Option<f64>> = rows
+                .iter()
+                .map(|r| r.2.get(name).map(|ci| ci.0[k]).filter(|x| x.is_finite()))
+                .collect();
+            cols.push(Column::new(format!("fraction_{name}_{end}").into(), v));
+        }
         if rqmc {
             let v: Vec<Option<f64>> = rows
                 .iter()
@@ -296,11 +311,6 @@ pub fn histograms_frame(points: &[(PointValues, LawAccs<'_>)]) -> Result<DataFra
             }
             for (mask, g) in acc.groups.iter().enumerate() {
                 let set_name = crate::output::summary::active_set_name(mask, contacts);
-                let set_name = if set_name.is_empty() {
-                    "(none)".to_string()
-                } else {
-                    set_name
-                };
                 hists.push((
                     set_name.clone(),
                     "energy_ratio".into(),
@@ -413,6 +423,14 @@ pub fn drop_frames(
         return Ok(Vec::new());
     }
     use crate::stats::drops::SIMULTANEITY_TOLERANCES;
+    // One end of each row's interval, null where undefined.
+    let ends = |name: &str, cis: &[Interval], k: usize| {
+        let v: Vec<Option<f64>> = cis
+            .iter()
+            .map(|ci| Some(ci.0[k]).filter(|x| x.is_finite()))
+            .collect();
+        Column::new(name.into(), v)
+    };
     let mut out: [Vec<DataFrame>; 4] = Default::default();
     for (i, (values, laws)) in points.iter().enumerate() {
         let (mut law, mut bounce, mut reached, mut frac) = (vec![], vec![], vec![], vec![]);
@@ -421,6 +439,8 @@ pub fn drop_frames(
             (vec![], vec![], vec![], vec![], vec![]);
         let (mut s_law, mut s_bounce, mut s_tol, mut s_frac) = (vec![], vec![], vec![], vec![]);
         let (mut q_law, mut q_seq, mut q_count, mut q_frac) = (vec![], vec![], vec![], vec![]);
+        // Wilson's 95 % intervals of each table's fractions.
+        let (mut p_ci, mut s_ci, mut q_ci) = (vec![], vec![], vec![]);
         for (l, a) in laws {
             for (k, b) in a.bounces.iter().enumerate() {
                 law.push(l.clone());
@@ -445,6 +465,7 @@ pub fn drop_frames(
                         p_set.push(active_set_name(mask, planes));
                         p_count.push(c);
                         p_frac.push(c as f64 / b.reached as f64);
+                        p_ci.push(Interval::wilson(c, b.reached));
                     }
                 }
                 for (&tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
@@ -452,6 +473,7 @@ pub fn drop_frames(
                     s_bounce.push(k as u32 + 1);
                     s_tol.push(tol);
                     s_frac.push((b.reached > 0).then(|| c as f64 / b.reached as f64));
+                    s_ci.push(Interval::wilson(c, b.reached));
                 }
             }
             for (cell, &c) in a.sequences.iter().enumerate() {
@@ -460,6 +482,7 @@ pub fn drop_frames(
                     q_seq.push(sequence_name(&a.sequence_masks(cell), planes));
                     q_count.push(c);
                     q_frac.push(c as f64 / a.samples.max(1) as f64);
+                    q_ci.push(Interval::wilson(c, a.samples));
                 }
             }
         }
@@ -492,6 +515,8 @@ pub fn drop_frames(
                     Column::new("planes".into(), p_set),
                     Column::new("count".into(), p_count),
                     Column::new("fraction".into(), p_frac),
+                    ends("low", &p_ci, 0),
+                    ends("high", &p_ci, 1),
                 ],
             )?,
             DataFrame::new(
@@ -501,6 +526,8 @@ pub fn drop_frames(
                     Column::new("bounce".into(), s_bounce),
                     Column::new("tolerance".into(), s_tol),
                     Column::new("fraction".into(), s_frac),
+                    ends("low", &s_ci, 0),
+                    ends("high", &s_ci, 1),
                 ],
             )?,
             DataFrame::new(
@@ -510,6 +537,8 @@ pub fn drop_frames(
                     Column::new("sequence".into(), q_seq),
                     Column::new("count".into(), q_count),
                     Column::new("fraction".into(), q_frac),
+                    ends("low", &q_ci, 0),
+                    ends("high", &q_ci, 1),
                 ],
             )?,
         ];

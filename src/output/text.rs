@@ -42,11 +42,15 @@ impl Summary {
                 continue;
             };
             let frac = |k: &str| all.fraction(k);
+            let flag = |k: &str| match all.fractions_ci95.get(k) {
+                Some(ci) => share(frac(k), ci),
+                None => format!("{:.2e}", frac(k)),
+            };
             let _ = writeln!(
                 s,
-                "\n[{law}] impacts {} of {} ({:.4}); energy_gain {:.2e}, degenerate {:.2e}, jammed {:.2e}, recomputed_f64 {:.2e}, penetrating {:.2e}",
-                all.impacts, all.samples, frac("impacting"), frac("energy_gain"), frac("degenerate"), frac("jammed"),
-                frac("recomputed_f64"), frac("penetrating")
+                "\n[{law}] impacts {} of {} ({}); energy_gain {}, degenerate {}, jammed {}, recomputed_f64 {}, penetrating {}",
+                all.impacts, all.samples, flag("impacting"), flag("energy_gain"), flag("degenerate"), flag("jammed"),
+                flag("recomputed_f64"), flag("penetrating")
             );
             let rqmc = self.sampling.is_some();
             let gain_head = if rqmc {
@@ -93,12 +97,9 @@ impl Summary {
             let sets: Vec<String> = all
                 .active_sets
                 .iter()
-                .map(|(k, v)| {
-                    let name = if k.is_empty() { "(none)" } else { k };
-                    match all.active_sets_ci95.get(k) {
-                        Some(ci) => format!("{name}={v:.4}±{ci:.1e}"),
-                        None => format!("{name}={v:.4}"),
-                    }
+                .map(|(k, v)| match all.active_sets_ci95.get(k) {
+                    Some(ci) => format!("{k} {}", share(*v, ci)),
+                    None => format!("{k} {v:.4}"),
                 })
                 .collect();
             let _ = writeln!(s, "  active sets: {}", sets.join("  "));
@@ -131,7 +132,10 @@ impl Summary {
             if let Some(only) = &p.energy_gain_only {
                 let parts: Vec<String> = only
                     .iter()
-                    .map(|(law, f)| format!("{law} only {f:.2e}"))
+                    .map(|(law, f)| match p.energy_gain_only_ci95.as_ref().and_then(|c| c.get(law)) {
+                        Some(ci) => format!("{law} only {}", share(*f, ci)),
+                        None => format!("{law} only {f:.2e}"),
+                    })
                     .collect();
                 let _ = write!(s, "; energy_gain in {}", parts.join(", "));
             }
@@ -141,14 +145,34 @@ impl Summary {
     }
 }
 
+/// A proportion and its 95 % interval, `0.1234 [0.1230, 0.1238]`; a
+/// count of none as its upper bound, `0 (≤ 3.8e-6)`.
+fn share(p: f64, ci: &Interval) -> String {
+    if p == 0.0 {
+        format!("0 (≤ {:.1e})", ci.high())
+    } else if p >= 1e-3 {
+        format!("{p:.4} [{:.4}, {:.4}]", ci.low(), ci.high())
+    } else {
+        format!("{p:.2e} [{:.1e}, {:.1e}]", ci.low(), ci.high())
+    }
+}
+
 /// The bounce table of one law's [`drop_summary`].
 fn drop_text(s: &mut String, d: &DropSummary) {
     use std::fmt::Write;
     let (e, up) = (&d.endings, &d.final_axis_up);
+    let ended = |name: &str, p: f64| match d.endings_ci95.get(name) {
+        Some(ci) => share(p, ci),
+        None => format!("{p:.4}"),
+    };
     let _ = writeln!(
         s,
-        "  ended: flew away {:.4}, came to rest {:.4}, bounce limit {:.4}, unsolved {:.2e}, stalled {:.2e}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
-        e.flew_away, e.came_to_rest, e.bounce_limit, e.unsolved, e.stalled,
+        "  ended: flew away {}, came to rest {}, bounce limit {}, unsolved {}, stalled {}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
+        ended("flew_away", e.flew_away),
+        ended("came_to_rest", e.came_to_rest),
+        ended("bounce_limit", e.bounce_limit),
+        ended("unsolved", e.unsolved),
+        ended("stalled", e.stalled),
         up.a, up.b, up.c
     );
     let _ = writeln!(
@@ -169,7 +193,10 @@ fn drop_text(s: &mut String, d: &DropSummary) {
             .planes_hit
             .iter()
             .max_by(|x, y| x.1.partial_cmp(y.1).expect("fractions"))
-            .map(|(k, v)| format!("{k} ({v:.3})"))
+            .map(|(k, v)| match b.planes_hit_ci95.get(k) {
+                Some(ci) => format!("{k} {}", share(*v, ci)),
+                None => format!("{k} ({v:.3})"),
+            })
             .unwrap_or_default();
         let _ = writeln!(
             s,
@@ -186,7 +213,7 @@ fn drop_text(s: &mut String, d: &DropSummary) {
         .sequences
         .iter()
         .take(5)
-        .map(|q| format!("{} {:.4}", q.sequence, q.fraction))
+        .map(|q| format!("{} {}", q.sequence, share(q.fraction, &q.ci95)))
         .collect();
     let _ = writeln!(
         s,

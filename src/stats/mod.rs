@@ -7,6 +7,7 @@ pub mod block;
 pub mod drops;
 mod histogram;
 mod moments;
+pub mod proportion;
 mod slot;
 mod stat;
 pub mod student;

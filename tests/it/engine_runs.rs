@@ -180,10 +180,13 @@ fn floor_scene_agrees_with_independent_reference_statistics() {
             let all = sum.all_group(law).unwrap();
             let stat = |name: &str| -> &StatSummary { &all.stats[name] };
             let (ours, ci) = match row.statistic.as_str() {
-                "frac_impacting" => (all.fractions["impacting"], all.fractions_ci95["impacting"]),
+                "frac_impacting" => (
+                    all.fractions["impacting"],
+                    all.fractions_ci95["impacting"].half_width(),
+                ),
                 "energy_gain_frac" => (
                     all.fractions["energy_gain"],
-                    all.fractions_ci95["energy_gain"],
+                    all.fractions_ci95["energy_gain"].half_width(),
                 ),
                 "energy_ratio_mean" => (stat("energy_ratio").mean, stat("energy_ratio").ci95),
                 // se of an sd ≈ sd/√(2n) for near-normal data; take the

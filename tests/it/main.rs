@@ -29,6 +29,7 @@ mod kubernetes;
 mod layering;
 mod physics_invariants;
 mod plots;
+mod proportions;
 mod python;
 mod ratios;
 mod readers;

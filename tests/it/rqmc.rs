@@ -305,7 +305,8 @@ fn mc_summaries_have_no_replicate_fields() {
     assert!(json.get("sampling").is_none());
     let all = &json["laws"]["newton"]["groups"]["all"];
     assert!(all["stats"]["energy_ratio"].get("gain").is_none());
-    assert!(all.get("active_sets_ci95").is_none());
+    assert!(all.get("active_sets_gain").is_none());
+    assert!(all.get("fractions_gain").is_none());
 }
 
 /// Requested samples become whole replicates of a power of two of points,
