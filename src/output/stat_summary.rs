@@ -71,14 +71,15 @@ impl StatSummary {
     /// delta-method half-width, `sd` that of its linearised terms; `min`
     /// and `max` those of the per-pair ratios (`per_pair`), between which
     /// the ratio lies (it is their mean weighted by the denominators).
-    pub fn from_ratio(r: &RatioOfSums, per_pair: &Moments) -> Self {
+    /// `pilot` is the ratio its residuals were taken against.
+    pub fn from_ratio(r: &RatioOfSums, pilot: f64, per_pair: &Moments) -> Self {
         let n = r.count();
         let nan_if_empty = |x: f64| if n == 0 { f64::NAN } else { x };
         Self {
             n,
-            mean: r.ratio(),
-            ci95: r.ci95(),
-            sd: r.sd(),
+            mean: r.ratio(pilot),
+            ci95: r.ci95(pilot),
+            sd: r.sd(pilot),
             min: nan_if_empty(per_pair.min()),
             p01: None,
             median: None,

@@ -402,7 +402,14 @@ fn headline(
     ])
 }
 
-fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSummary {
+/// One law's groups; `pilots` are the restitution statistics' pilot ratios
+/// ([`crate::stats::block::pilots`]).
+fn law_summary(
+    acc: &LawAcc,
+    contacts: &[String],
+    pilots: &[f64; 3],
+    by_active_set: bool,
+) -> LawSummary {
     let mut stats = headline(
         StatSummary::from_stat(&acc.energy_ratio),
         StatSummary::from_stat(&acc.omega_after_norm),
@@ -419,7 +426,7 @@ fn law_summary(acc: &LawAcc, contacts: &[String], by_active_set: bool) -> LawSum
         );
         stats.insert(
             format!("restitution_{name}"),
-            StatSummary::from_ratio(&acc.restitution[i], &acc.rebound[i].moments),
+            StatSummary::from_ratio(&acc.restitution[i], pilots[i], &acc.rebound[i].moments),
         );
         if let Some(fr) = &acc.friction {
             stats.insert(
@@ -537,12 +544,13 @@ impl Summary {
             .map(|&i| scene.planes()[i].name.clone())
             .collect();
         let by_set = scene.effects().statistics.by_active_set;
+        let pilots = crate::stats::block::pilots(scene);
         let laws = Named(
             scene
                 .laws()
                 .iter()
                 .zip(&acc.laws)
-                .map(|(law, acc)| (law.name(), law_summary(acc, &contacts, by_set)))
+                .map(|(law, acc)| (law.name(), law_summary(acc, &contacts, &pilots, by_set)))
                 .collect(),
         );
         // The samples the accumulators hold: the scene's count, except for

@@ -43,8 +43,9 @@ pub(crate) struct Derived<T, const N: usize> {
     impacting: [T; BLOCK],
     lambda: [[T; BLOCK]; N],
     rebound: [[T; BLOCK]; N],
-    /// v_n⁺, |v_n⁻| and their sum where the contact approached (0 elsewhere).
-    vn_out: [[T; BLOCK]; N],
+    /// v_n⁺ − e₀|v_n⁻| (the residual against the pilot ratio e₀), |v_n⁻|
+    /// and their sum where the contact approached (0 elsewhere).
+    vn_resid: [[T; BLOCK]; N],
     vn_in: [[T; BLOCK]; N],
     vn_sum: [[T; BLOCK]; N],
     approaching: [[T; BLOCK]; N],
@@ -61,7 +62,7 @@ impl<T: Real, const N: usize> Derived<T, N> {
             impacting: [T::ZERO; BLOCK],
             lambda: [[T::ZERO; BLOCK]; N],
             rebound: [[T::ZERO; BLOCK]; N],
-            vn_out: [[T::ZERO; BLOCK]; N],
+            vn_resid: [[T::ZERO; BLOCK]; N],
             vn_in: [[T::ZERO; BLOCK]; N],
             vn_sum: [[T::ZERO; BLOCK]; N],
             approaching: [[T::ZERO; BLOCK]; N],
@@ -81,6 +82,9 @@ pub(crate) struct StatsPlan {
     by_set: bool,
     /// |ω⁺| when it is the same in every sample: counted, not computed.
     constant_spin: Option<f64>,
+    /// Each recorded plane's restitution: the pilot ratio the restitution
+    /// statistic's residuals are taken against ([`crate::stats::RatioOfSums`]).
+    pilot: [f64; 3],
 }
 
 impl StatsPlan {
@@ -105,8 +109,20 @@ impl StatsPlan {
             by_set: st.by_active_set,
             // With rotation kept, |ω⁺| is computed per sample.
             constant_spin: if keep.rotation { None } else { e.constant_spin },
+            pilot: pilots(scene),
         }
     }
+}
+
+/// The pilot ratio of each recorded plane's restitution statistic (its
+/// restitution; 0 past the planes).
+pub fn pilots(scene: &Scene) -> [f64; 3] {
+    let planes = scene.recorded_planes();
+    std::array::from_fn(|i| {
+        planes
+            .get(i)
+            .map_or(0.0, |&p| scene.planes()[p].plane.restitution())
+    })
 }
 
 /// What the statistics read of a block's state before the impact: the
@@ -146,6 +162,7 @@ fn derive<T: Real, const N: usize>(
     let mut n = BlockCounts::default();
     // |ω⁺| per lane, unless it is the same in every sample.
     let omega_per_lane = plan.constant_spin.is_none();
+    let pilot: [T; N] = std::array::from_fn(|i| T::from_f64(plan.pilot[i]));
     // One loop with non-short-circuit logic, so that it vectorises: the
     // divisions and square roots overlap the rest (in separate loops each
     // waited on the divider: S1 about 2 % slower). Counts are
@@ -190,9 +207,10 @@ fn derive<T: Real, const N: usize>(
                 select(toward, after, T::ZERO),
                 select(toward, -before, T::ZERO),
             );
-            d.vn_out[i][s] = x;
+            let resid = x - pilot[i] * y;
+            d.vn_resid[i][s] = resid;
             d.vn_in[i][s] = y;
-            d.vn_sum[i][s] = x + y;
+            d.vn_sum[i][s] = resid + y;
         }
     }
     n
@@ -329,8 +347,8 @@ fn block_stats_lanes<T: Real, const N: usize>(
             // rebound's).
             let r = &mut la.restitution[i];
             Moments::push_weighted_sums_many(
-                [&mut r.x, &mut r.y, &mut r.sum],
-                [&d.vn_out[i], &d.vn_in[i], &d.vn_sum[i]],
+                [&mut r.resid, &mut r.y, &mut r.sum],
+                [&d.vn_resid[i], &d.vn_in[i], &d.vn_sum[i]],
                 &d.approaching[i],
             );
         }

@@ -296,60 +296,116 @@ impl Moments {
     }
 }
 
-/// A ratio of sums `Σx / Σy` over pairs with `y > 0`, with the error of a
-/// ratio estimator (delta method): `ci95 = 1.96 · sd(z) / √n` with
-/// `z = (x − R·y) / ȳ`. The moments of `x`, `y` and `x + y` give the
-/// covariance. Mergeable like its moments.
+/// A ratio of sums `R = Σx / Σy` over pairs with `y > 0`, with the error of
+/// a ratio estimator (delta method): `ci95 = 1.96 · sd(z) / √n` with
+/// `z = (x − R·y) / ȳ`.
+///
+/// It keeps the moments of the residual `r = x − e₀·y` against a pilot
+/// ratio `e₀` (a run constant the caller passes back: a plane's
+/// restitution), of `y` and of `r + y` (which give the covariance). Where
+/// the ratio is near the pilot, as under Newton's law where every pair has
+/// it up to rounding, var z is then var r itself, not the difference of
+/// two nearly equal variances of x and y (which cancelled to 0 in f32).
+/// Mergeable like its moments.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RatioOfSums {
-    pub x: Moments,
+    pub resid: Moments,
     pub y: Moments,
     pub sum: Moments,
 }
 
 impl RatioOfSums {
-    pub fn push(&mut self, x: f64, y: f64) {
-        self.x.push(x);
+    /// Adds the pair `(x, y)`, its residual taken against `pilot`.
+    pub fn push(&mut self, x: f64, y: f64, pilot: f64) {
+        let r = x - pilot * y;
+        self.resid.push(r);
         self.y.push(y);
-        self.sum.push(x + y);
+        self.sum.push(r + y);
     }
 
     pub fn count(&self) -> u64 {
         self.y.count()
     }
 
-    /// `Σx / Σy` (NaN with no pair).
-    pub fn ratio(&self) -> f64 {
+    /// `Σx / Σy = e₀ + Σr / Σy` (NaN with no pair).
+    pub fn ratio(&self, pilot: f64) -> f64 {
         if self.count() == 0 {
             return f64::NAN;
         }
-        self.x.mean() / self.y.mean()
+        pilot + self.resid.mean() / self.y.mean()
     }
 
-    /// The standard deviation of `z = (x − R·y)/ȳ`, the per-pair term whose
-    /// mean's error is the ratio's: `√(var x − 2R cov + R² var y) / ȳ`.
-    pub fn sd(&self) -> f64 {
+    /// The standard deviation of `z = (x − R·y)/ȳ = (r − (R − e₀)·y)/ȳ`:
+    /// `√(var r − 2δ cov(r, y) + δ² var y) / ȳ` with `δ = R − e₀`.
+    pub fn sd(&self, pilot: f64) -> f64 {
         if self.count() < 2 {
             return f64::NAN;
         }
-        let (vx, vy, vs) = (
-            self.x.sd().powi(2),
+        let (vr, vy, vs) = (
+            self.resid.sd().powi(2),
             self.y.sd().powi(2),
             self.sum.sd().powi(2),
         );
-        let cov = 0.5 * (vs - vx - vy);
-        let r = self.ratio();
-        // A ratio that is the same in every pair (a constant restitution)
-        // has var z = 0 up to rounding, which may come out negative.
-        (vx - 2.0 * r * cov + r * r * vy).max(0.0).sqrt() / self.y.mean()
+        let cov = 0.5 * (vs - vr - vy);
+        let delta = self.ratio(pilot) - pilot;
+        (vr - 2.0 * delta * cov + delta * delta * vy).max(0.0).sqrt() / self.y.mean()
     }
 
-    pub fn ci95(&self) -> f64 {
+    pub fn ci95(&self, pilot: f64) -> f64 {
         let n = self.count();
         if n < 2 {
             f64::NAN
         } else {
-            1.96 * self.sd() / (n as f64).sqrt()
+            1.96 * self.sd(pilot) / (n as f64).sqrt()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ratio, and sd(z) against a two-pass computation over the pairs
+    /// (z = (x − R·y)/ȳ), for a ratio that varies and one that is the
+    /// pilot up to rounding (x = e·y·(1 + δ), |δ| ≤ 6e-8, as in f32):
+    /// there the old form, var x − 2R cov + R² var y from the moments of
+    /// x, y and x + y, cancelled to about 0.
+    #[test]
+    fn ratio_of_sums_against_two_passes() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let e = 0.8;
+        for spread in [0.2, 6e-8] {
+            let pairs: Vec<(f64, f64)> = (0..20_000)
+                .map(|_| {
+                    let y = 0.1 + 3.0 * uniform();
+                    (e * y * (1.0 + spread * (2.0 * uniform() - 1.0)), y)
+                })
+                .collect();
+            let mut r = RatioOfSums::default();
+            for &(x, y) in &pairs {
+                r.push(x, y, e);
+            }
+            r.resid.flush();
+            r.y.flush();
+            r.sum.flush();
+            let n = pairs.len() as f64;
+            let (sx, sy) = pairs.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+            let ratio = sx / sy;
+            let ybar = sy / n;
+            let z: Vec<f64> = pairs.iter().map(|&(x, y)| (x - ratio * y) / ybar).collect();
+            let zbar = z.iter().sum::<f64>() / n;
+            let sd = (z.iter().map(|v| (v - zbar).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+            assert!((r.ratio(e) - ratio).abs() < 1e-14, "{spread}: {}", r.ratio(e));
+            assert!(
+                (r.sd(e) - sd).abs() < 1e-6 * sd,
+                "{spread}: sd {} vs {sd}",
+                r.sd(e)
+            );
+            assert!(sd > 0.0);
         }
     }
 }

@@ -60,7 +60,7 @@ fn law_line(key: &str, a: &LawAcc) -> String {
         l += &moments(&format!("rebound{i}"), &st.moments);
     }
     for (i, r) in a.restitution.iter().enumerate() {
-        l += &moments(&format!("restitution{i}.x"), &r.x);
+        l += &moments(&format!("restitution{i}.resid"), &r.resid);
         l += &moments(&format!("restitution{i}.y"), &r.y);
         l += &moments(&format!("restitution{i}.sum"), &r.sum);
     }
