@@ -14,7 +14,7 @@ use serde_json::json;
 
 use crate::config::sweep::{plan_text, Axis};
 use crate::config::RawScene;
-use crate::config::{Overrides, Precision, Scene, SceneError, SceneText};
+use crate::config::{Overrides, Precision, Scene, SceneError, SceneText, Target};
 use crate::engine::{run_with_samples, samples_run, RunError, RunOptions, SinkError, Watch};
 use crate::output::arrow::{ArrowTable, MemoryRows};
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
@@ -151,7 +151,160 @@ impl StudyError {
 /// per-sample rows into the staging area of `dir` when the scene asks for
 /// them. Without `dir` nothing is written: the rows stay in memory
 /// ([`Study::samples`]) and [`Study::write`] refuses.
+///
+/// A scene with a target precision ([`Target`]) runs in rounds
+/// ([`run_to_target`]).
 pub fn run(
+    src: &SceneText,
+    overrides: &Overrides,
+    opts: &RunOptions,
+    dir: Option<&Path>,
+) -> Result<Study, StudyError> {
+    let (_, points) = plan_text(src, overrides)?;
+    match points[0].scene.target() {
+        Some(t) => run_to_target(src, overrides, opts, dir, &points[0].scene, &t.clone()),
+        None => run_once(src, overrides, opts, dir),
+    }
+}
+
+/// A target's error: the field is `target` (or the flag that set it).
+fn target_error(src: &SceneText, overrides: &Overrides, field: &str, message: String) -> StudyError {
+    let e = SceneError {
+        file: src.file.clone(),
+        line: crate::config::line_of(&src.text, &["target"]),
+        field: field.into(),
+        message,
+    };
+    overrides.blame(e).into()
+}
+
+/// Runs the study at growing sample counts until every target statistic's
+/// 95 % half-width is at most its bound under every law and at every grid
+/// point, or a round has run `max_samples`. Each round is a whole run from
+/// the first sample: counter-based draws make the samples of a count a
+/// prefix of the same stream, so the result is the fixed-count run of the
+/// last round's count, bit for bit. The next count is predicted from
+/// ci95·√N (the largest ratio², 5 % over, rounded up to whole batches, at
+/// least 1.25× and at most `max_samples`); under RQMC, whose error falls
+/// faster than N^-1/2, the points per replicate double instead.
+pub fn run_to_target(
+    src: &SceneText,
+    overrides: &Overrides,
+    opts: &RunOptions,
+    dir: Option<&Path>,
+    scene: &Scene,
+    target: &Target,
+) -> Result<Study, StudyError> {
+    use crate::output::summary::{TargetStatistic, TargetSummary};
+    if opts.shard.is_some() {
+        return Err(target_error(
+            src,
+            overrides,
+            "target",
+            "a run with a target precision cannot be sharded (its sample count is known only at its end): run it whole, or shard a run with --samples".into(),
+        ));
+    }
+    // Every name must be a statistic or a fraction the summary has.
+    let empty = RunResult {
+        acc: crate::stats::accumulators::RunAcc::shaped(Shape::of(scene)),
+        replicates: Vec::new(),
+        nodes: Vec::new(),
+        batches: 0,
+        batches_run: 0,
+        wall_seconds: 0.0,
+        cpu_seconds: None,
+        threads: 1,
+    };
+    let names = Summary::new(scene, &empty);
+    let law = scene.laws()[0].name();
+    let all = names.all_group(&law).expect("the first law's summary");
+    for (name, _) in &target.ci95 {
+        if all.half_width(name).is_none() {
+            let mut known: Vec<&str> = all.stats.keys().map(String::as_str).collect();
+            known.extend(all.fractions.keys().map(String::as_str));
+            return Err(target_error(
+                src,
+                overrides,
+                &format!("target.ci95.{name}"),
+                format!(
+                    "{name:?} is not a statistic or fraction of this scene's summary; it has {}",
+                    known.join(", ")
+                ),
+            ));
+        }
+    }
+    let mut n = scene.samples();
+    let mut rounds = Vec::new();
+    loop {
+        let o = Overrides {
+            samples: Some(n),
+            ..overrides.clone()
+        };
+        let mut study = run_once(src, &o, opts, dir)?;
+        let ran = study.points[0].scene.samples();
+        rounds.push(ran);
+        let statistics: Vec<TargetStatistic> = target
+            .ci95
+            .iter()
+            .map(|(name, eps)| {
+                // The widest over grid points and laws; an undefined one
+                // (no sample yet has the statistic) counts as not reached.
+                let achieved = study
+                    .points
+                    .iter()
+                    .flat_map(|p| p.summary.laws.iter())
+                    .map(|(_, l)| {
+                        l.groups
+                            .get("all")
+                            .and_then(|g| g.half_width(name))
+                            .filter(|h| !h.is_nan())
+                            .unwrap_or(f64::INFINITY)
+                    })
+                    .fold(0.0, f64::max);
+                TargetStatistic {
+                    statistic: name.clone(),
+                    ci95: *eps,
+                    achieved,
+                    reached: achieved <= *eps,
+                }
+            })
+            .collect();
+        let reached = statistics.iter().all(|t| t.reached);
+        let rqmc = scene.sampling().replicates().is_some();
+        let next = if rqmc {
+            ran.saturating_mul(2)
+        } else {
+            let factor = statistics
+                .iter()
+                .map(|t| (t.achieved / t.ci95).powi(2))
+                .fold(1.25f64, f64::max);
+            let batch = scene.batch_size();
+            let want = if factor.is_finite() {
+                (ran as f64 * factor * 1.05).ceil().min(u64::MAX as f64) as u64
+            } else {
+                ran.saturating_mul(4)
+            };
+            want.div_ceil(batch).saturating_mul(batch).min(target.max_samples)
+        };
+        // RQMC runs whole powers of two per replicate: none past the budget.
+        if reached || ran >= target.max_samples || next <= ran || next > target.max_samples {
+            let t = TargetSummary {
+                reached,
+                rounds,
+                max_samples: target.max_samples,
+                statistics,
+            };
+            for p in study.points.iter_mut() {
+                p.summary.target = Some(t.clone());
+            }
+            return Ok(study);
+        }
+        n = next;
+    }
+}
+
+/// One run of the study at the scene's sample count.
+fn run_once(
     src: &SceneText,
     overrides: &Overrides,
     opts: &RunOptions,
@@ -384,6 +537,7 @@ impl Study {
             "seed": self.raw.seed,
             "throughput": {"samples_per_second": samples as f64 / wall, "wall_seconds": wall},
             "sweep": {"axes": self.axes.iter().map(|a| json!({"path": a.path, "values": a.values})).collect::<Vec<_>>()},
+            "target": self.points[0].summary.target,
             "points": self.points.iter().map(|p| json!({
                 "values": p.values.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
                 "summary": p.summary,

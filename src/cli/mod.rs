@@ -33,9 +33,32 @@ pub fn parse_count(s: &str) -> Result<u64, String> {
         .ok_or_else(bad)
 }
 
+/// `--target-ci STAT=EPS`: a statistic's name and the half-width to reach.
+pub fn parse_target(s: &str) -> Result<(String, f64), String> {
+    let bad = || format!("{s:?} is not STAT=EPS: write energy_ratio=1e-4");
+    let (name, eps) = s.split_once('=').ok_or_else(bad)?;
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(bad());
+    }
+    let eps: f64 = eps.trim().parse().map_err(|_| bad())?;
+    Ok((name.to_string(), eps))
+}
+
 #[cfg(test)]
 mod tests {
-    use super::parse_count;
+    use super::{parse_count, parse_target};
+
+    #[test]
+    fn targets_are_a_name_and_a_number() {
+        assert_eq!(
+            parse_target("energy_ratio=1e-4"),
+            Ok(("energy_ratio".into(), 1e-4))
+        );
+        for bad in ["energy_ratio", "=1e-4", "energy_ratio=small", ""] {
+            assert!(parse_target(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn counts_take_underscores_and_exponents() {

@@ -71,6 +71,16 @@ pub struct RunArgs {
     /// keeps none (moments only).
     #[arg(long, value_delimiter = ',', value_name = "STATS")]
     quantiles: Option<Vec<String>>,
+    /// A precision to reach, STAT=EPS (repeatable): the run grows its
+    /// sample count in rounds until the 95 % half-width of STAT (a
+    /// statistic or fraction of the summary, e.g. energy_ratio=1e-4) is at
+    /// most EPS under every law. Replaces the scene's `[target] ci95`.
+    #[arg(long = "target-ci", value_name = "STAT=EPS", value_parser = super::parse_target)]
+    target_ci: Vec<(String, f64)>,
+    /// The most samples a target run may take (default 2^32): 1e8 or
+    /// 100_000_000.
+    #[arg(long, value_parser = super::parse_count)]
+    max_samples: Option<u64>,
     /// Summary format on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
@@ -100,6 +110,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             .quantiles
             .clone()
             .map(|q| if q == [""] { Vec::new() } else { q }),
+        target_ci: (!args.target_ci.is_empty()).then(|| args.target_ci.clone()),
+        max_samples: args.max_samples,
     };
     let keep = args.keep.iter().fold(
         if args.all_effects {

@@ -18,7 +18,7 @@ pub use plane::NamedPlane;
 pub use raw::*;
 pub use scene::{
     load_scene, Contact, DropBox, OrientationDist, Overrides, Placement, Precision, Sampling,
-    Scene, SceneError, SceneText, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS,
+    Scene, SceneError, SceneText, Target, VectorDist, DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS,
     MAX_SAMPLES,
 };
 pub use validate::parse_law;

@@ -51,12 +51,29 @@ pub struct RawScene {
     /// Which statistics a run keeps beyond counts and moments.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub statistics: Option<RawStatistics>,
+    /// A precision to reach: the run grows its sample count until it does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<RawTarget>,
     /// Contact material, for the compliant reference of `impactmc accuracy`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<RawMaterial>,
     /// Knobs of `impactmc accuracy` (the accuracy ladder).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accuracy: Option<RawAccuracy>,
+}
+
+/// A target precision: `ci95 = { energy_ratio = 1e-4 }`, the 95 %
+/// half-width each statistic (or fraction) must reach under every law and
+/// at every grid point, and the most samples to run for it.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawTarget {
+    /// Half-widths by statistic name.
+    pub ci95: std::collections::BTreeMap<String, f64>,
+    /// The most samples a round may run (default 2^32, or `samples` if
+    /// that is more).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_samples: Option<u64>,
 }
 
 /// Contact material of the compliant model.

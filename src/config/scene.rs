@@ -198,7 +198,19 @@ pub struct Scene {
     pub(super) orientation: OrientationDist,
     pub(super) velocity: VectorDist,
     pub(super) angular_velocity: VectorDist,
+    pub(super) target: Option<Target>,
     pub(super) raw: RawScene,
+}
+
+/// A target precision (`[target]`, validated): the 95 % half-width each
+/// named statistic or fraction must reach, and the most samples a round
+/// may run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// `(name, half-width)`, in name order.
+    pub ci95: Vec<(String, f64)>,
+    /// At least the scene's `samples`.
+    pub max_samples: u64,
 }
 impl Scene {
     /// Parses scene text into its raw form; a syntax or type error names the
@@ -259,6 +271,10 @@ impl Scene {
     /// Samples to run.
     pub fn samples(&self) -> u64 {
         self.samples
+    }
+    /// The precision to reach, if the scene sets one.
+    pub fn target(&self) -> Option<&Target> {
+        self.target.as_ref()
     }
     /// The seed of the counter-based draws.
     pub fn seed(&self) -> u64 {
@@ -420,6 +436,10 @@ pub struct Overrides {
     pub sampling: Option<String>,
     /// `--replicates`: RQMC's replicates.
     pub replicates: Option<u64>,
+    /// `--target-ci STAT=EPS` (repeatable): replaces `[target] ci95`.
+    pub target_ci: Option<Vec<(String, f64)>>,
+    /// `--max-samples`: `[target] max_samples`.
+    pub max_samples: Option<u64>,
 }
 
 impl Overrides {
@@ -438,6 +458,10 @@ impl Overrides {
                 "--quantiles"
             }
             "output" if self.columns.is_some() && e.field.contains("columns") => "--columns",
+            "target" if self.max_samples.is_some() && e.field.contains("max_samples") => {
+                "--max-samples"
+            }
+            "target" if self.target_ci.is_some() => "--target-ci",
             _ => return e,
         };
         // Keep the element: `--quantiles[1]`, `--law[0]`.
@@ -477,6 +501,15 @@ impl Overrides {
         if let Some(q) = &self.quantiles {
             let st = raw.statistics.get_or_insert_with(Default::default);
             st.quantiles = Some(q.clone());
+        }
+        if self.target_ci.is_some() || self.max_samples.is_some() {
+            let t = raw.target.get_or_insert_with(Default::default);
+            if let Some(c) = &self.target_ci {
+                t.ci95 = c.iter().cloned().collect();
+            }
+            if let Some(m) = self.max_samples {
+                t.max_samples = Some(m);
+            }
         }
         if self.per_sample || self.columns.is_some() {
             let out = raw.output.get_or_insert_with(Default::default);

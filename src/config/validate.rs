@@ -8,7 +8,7 @@ use crate::config::bad::{bad, Bad};
 use crate::config::effects::Effects;
 use crate::config::plane::NamedPlane;
 use crate::config::scene::{
-    Contact, DropBox, OrientationDist, Placement, Precision, Sampling, Scene, VectorDist,
+    Contact, DropBox, OrientationDist, Placement, Precision, Sampling, Scene, Target, VectorDist,
     DEFAULT_TOLERANCE_RELATIVE, MAX_LOG2_POINTS, MAX_SAMPLES,
 };
 use crate::config::{RawOrientation, RawScene, RawVector};
@@ -283,6 +283,42 @@ fn sampling(raw: &RawScene) -> Result<Sampling, Bad> {
     }
 }
 
+/// `[target]`: positive half-widths, and a sample budget of at least
+/// `samples` (default: 2^32, or `samples` if more).
+fn target(raw: &RawScene) -> Result<Option<Target>, Bad> {
+    let Some(t) = &raw.target else {
+        return Ok(None);
+    };
+    if t.ci95.is_empty() {
+        return Err(bad(
+            &["target", "ci95"],
+            "names no statistic: give at least one, e.g. energy_ratio = 1e-4",
+        ));
+    }
+    for (name, &eps) in &t.ci95 {
+        if !(eps.is_finite() && eps > 0.0) {
+            return Err(bad(
+                &["target", "ci95", name],
+                format!("must be a finite half-width > 0, got {eps}"),
+            ));
+        }
+    }
+    let max_samples = t.max_samples.unwrap_or((1u64 << 32).max(raw.samples));
+    if !(raw.samples..=MAX_SAMPLES).contains(&max_samples) {
+        return Err(bad(
+            &["target", "max_samples"],
+            format!(
+                "must be in samples..=2^53 ({}..=2^53), got {max_samples}",
+                raw.samples
+            ),
+        ));
+    }
+    Ok(Some(Target {
+        ci95: t.ci95.iter().map(|(k, &v)| (k.clone(), v)).collect(),
+        max_samples,
+    }))
+}
+
 impl Scene {
     /// Raw → validated, section by section; every default made explicit.
     pub(super) fn from_raw(raw: RawScene) -> Result<Self, Bad> {
@@ -304,6 +340,7 @@ impl Scene {
         let laws = laws(&raw)?;
         let precision: Precision = raw.precision.parse().map_err(|m| bad(&["precision"], m))?;
         let sampling = sampling(&raw)?;
+        let target = target(&raw)?;
         // A drop sample costs hundreds of contact samples: smaller batches
         // keep every core busy on a drop scene's default sample count.
         let default_batch = if raw.placement.drop.is_some() {
@@ -393,6 +430,7 @@ impl Scene {
             orientation,
             velocity,
             angular_velocity,
+            target,
             raw,
         })
     }

@@ -75,6 +75,45 @@ impl GroupSummary {
     pub fn fraction(&self, name: &str) -> f64 {
         self.fractions.get(name).copied().unwrap_or(f64::NAN)
     }
+
+    /// The 95 % half-width of a statistic's mean, or half the width of a
+    /// fraction's or active set's interval, by name; None for a name the
+    /// group does not have.
+    pub fn half_width(&self, name: &str) -> Option<f64> {
+        self.stats
+            .get(name)
+            .map(|s| s.ci95)
+            .or_else(|| self.fractions_ci95.get(name).map(Interval::half_width))
+            .or_else(|| self.active_sets_ci95.get(name).map(Interval::half_width))
+    }
+}
+
+/// How a run with a target precision (`[target]`, `--target-ci`) went.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TargetSummary {
+    /// Every statistic reached its half-width.
+    pub reached: bool,
+    /// The sample counts of the rounds run; the last is the summary's.
+    pub rounds: Vec<u64>,
+    /// The most samples a round could take.
+    pub max_samples: u64,
+    /// Per statistic, in name order.
+    pub statistics: Vec<TargetStatistic>,
+}
+
+/// One statistic of a target.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TargetStatistic {
+    /// Its name: a statistic or a fraction of the summary.
+    pub statistic: String,
+    /// The half-width asked for.
+    pub ci95: f64,
+    /// The largest half-width over the laws (and grid points) at the last
+    /// round.
+    #[serde(deserialize_with = "nan_if_null")]
+    pub achieved: f64,
+    /// `achieved <= ci95`.
+    pub reached: bool,
 }
 
 /// One law: its groups, `all` first, then the active sets present (with
@@ -260,6 +299,9 @@ pub struct Summary {
     /// describes each sample's first impact.
     #[serde(default, skip_serializing_if = "Named::is_empty")]
     pub drops: Named<DropSummary>,
+    /// A run with a target precision: its rounds and what they reached.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<TargetSummary>,
 }
 
 /// The name of a sequence of sets of planes hit: `wall_x > floor+wall_y`,
@@ -609,6 +651,7 @@ impl Summary {
             laws,
             paired,
             drops,
+            target: None,
         }
     }
 

@@ -18,6 +18,9 @@ impl Summary {
             self.throughput.wall_seconds,
             self.throughput.samples_per_second
         );
+        if let Some(t) = &self.target {
+            s.push_str(&t.to_text(self.samples));
+        }
         if let Some(q) = &self.sampling {
             let _ = writeln!(
                 s,
@@ -142,6 +145,31 @@ impl Summary {
             let _ = writeln!(s);
         }
         s
+    }
+}
+
+impl TargetSummary {
+    /// One line: what was asked, whether it was reached, at what count.
+    pub fn to_text(&self, samples: u64) -> String {
+        let stats: Vec<String> = self
+            .statistics
+            .iter()
+            .map(|t| format!("{} ci95 {:.3e} (≤ {:.1e} asked)", t.statistic, t.achieved, t.ci95))
+            .collect();
+        let rounds: Vec<String> = self.rounds.iter().map(u64::to_string).collect();
+        let verdict = if self.reached {
+            format!("reached at {samples} samples")
+        } else {
+            format!(
+                "NOT reached within max_samples {} (at {samples} samples)",
+                self.max_samples
+            )
+        };
+        format!(
+            "target: {}; {verdict}; rounds {}\n",
+            stats.join(", "),
+            rounds.join(", ")
+        )
     }
 }
 

@@ -115,6 +115,7 @@ pub(super) fn scene(
         accuracy: None,
         effects: None,
         statistics: None,
+        target: None,
     };
     Scene::validate("(stress)", "", raw).expect("stress scenes are valid")
 }

@@ -39,5 +39,6 @@ mod shards;
 mod slurm;
 mod solve_cli;
 mod stability;
+mod target;
 mod targets_round_alike;
 mod time_of_impact;
