@@ -83,8 +83,9 @@ pub const STATISTIC_NAMES: [&str; 5] = [
     "rebound",
 ];
 
-/// Which statistics keep quantiles (a histogram each). Serialised as five
-/// booleans in [`Statistic::ALL`] order.
+/// Which statistics keep quantiles (a histogram each). Serialised as the
+/// list of their names, in [`Statistic::ALL`] order (as `[statistics]
+/// quantiles` is written).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Quantiles([bool; 5]);
 
@@ -108,7 +109,7 @@ impl Quantiles {
 
 impl serde::Serialize for Quantiles {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.0.serialize(s)
+        s.collect_seq(self.iter().map(Statistic::name))
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::support;
 
-use support::{bin, repo, tmpdir};
+use support::{bin, json_file, repo, tmpdir};
 
 use std::path::Path;
 
@@ -451,4 +451,22 @@ fn the_default_scene_is_built_in() {
     let file: serde_json::Value = serde_json::from_str(&file).unwrap();
     assert_eq!(built_in["laws"], file["laws"]);
     assert_eq!(built_in["scene"], "corner3");
+}
+
+/// The manifest names the statistics whose quantiles a run kept, as the
+/// scene's `[statistics] quantiles` does (it was five unlabelled booleans).
+#[test]
+fn the_manifest_names_the_quantiles_kept() {
+    let d = tmpdir("manifest-quantiles");
+    let (code, _, err) = run_scene(
+        &repo("configs/floor.toml"),
+        &d.join("out"),
+        &["--samples", "1000", "--quantiles", "impulse,energy_ratio"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let m = json_file(&d.join("out/manifest.json"));
+    assert_eq!(
+        m["effects"]["statistics"]["quantiles"],
+        serde_json::json!(["energy_ratio", "impulse"])
+    );
 }
