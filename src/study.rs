@@ -333,9 +333,9 @@ fn run_once(
             .map_err(|m| field_error("columns", m))?;
         let precision = selection.precision();
         let threads = opts.worker_threads();
-        let sweep = !axes.is_empty();
+        let sweep: Vec<String> = axes.iter().map(|a| a.path.clone()).collect();
         Some(match staging.as_mut() {
-            None => Rows::Memory(MemoryRows::new(selection, sweep)),
+            None => Rows::Memory(MemoryRows::new(selection, &sweep)),
             Some(staging) => {
                 staging.create("samples.parquet")?;
                 let path = staging
@@ -375,7 +375,7 @@ fn run_once(
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();
     for (i, p) in points.into_iter().enumerate() {
-        let point = sweep.then_some(i as u32);
+        let point = sweep.then(|| (i as u32, p.values.iter().map(|v| v.1).collect::<Vec<_>>()));
         let result = match writer.as_mut() {
             None => run_with_samples(&p.scene, opts, None)?,
             Some(Rows::File(w, _)) => {

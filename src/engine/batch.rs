@@ -16,7 +16,7 @@ use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::Real;
 use crate::output::columns::Field;
 use crate::output::samples::SampleRows;
-use crate::physics::{quaternion_from_matrix, Law};
+use crate::physics::{bryan_from_matrix, quaternion_from_matrix, Law};
 use crate::sampler::{Inputs, Sampler};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::record_friction;
@@ -270,12 +270,21 @@ pub(crate) fn push_rows<T: Real, const N: usize>(
     rows.index.extend(first..first + count as u64);
     // The orientation as a unit quaternion with w ≥ 0, from the matrix the
     // kernel used.
+    // The orientation as a unit quaternion with w ≥ 0, and as Bryan angles
+    // (degrees), from the matrix the kernel used.
     let mut q = [[0.0f64; 4]; BLOCK];
+    let mut bryan = [[0.0f64; 3]; BLOCK];
     let quaternion = rows.fills_any(|f| matches!(f, Field::Quaternion(_)));
-    for (s, q) in q.iter_mut().enumerate().take(count * quaternion as usize) {
+    let angles = rows.fills_any(|f| matches!(f, Field::Bryan(_)));
+    for s in 0..count * (quaternion || angles) as usize {
         let a = DMat3::from_cols_array(&std::array::from_fn(|k| x.a[k][s].to_f64())).transpose();
-        let r = quaternion_from_matrix(a);
-        *q = [r.w, r.x, r.y, r.z];
+        if quaternion {
+            let r = quaternion_from_matrix(a);
+            q[s] = [r.w, r.x, r.y, r.z];
+        }
+        if angles {
+            bryan[s] = bryan_from_matrix(a).degrees();
+        }
     }
     fn lane<T: Real>(c: &[T; BLOCK], count: usize) -> impl Iterator<Item = f64> + '_ {
         c[..count].iter().map(|v| v.to_f64())
@@ -283,6 +292,7 @@ pub(crate) fn push_rows<T: Real, const N: usize>(
     for (k, field) in rows.float_fields().iter().enumerate() {
         match *field {
             Field::Quaternion(c) => rows.put(k, q[..count].iter().map(|q| q[c])),
+            Field::Bryan(c) => rows.put(k, bryan[..count].iter().map(|b| b[c])),
             Field::Velocity(c) => rows.put(k, lane(&x.v[c], count)),
             Field::Omega(c) => rows.put(k, lane(&x.w[c], count)),
             Field::EnergyBefore => rows.put(k, lane(&geo.t_before, count)),
@@ -316,6 +326,10 @@ pub(crate) fn push_rows<T: Real, const N: usize>(
             Field::Active { law } => {
                 column.extend(status(law).map(|st| st.active_mask::<N>() as u16))
             }
+            // As the statistics count an impact (`stats::block`).
+            Field::Impacted { law } => column.extend(status(law).map(|st| {
+                (st.approaching_mask::<N>() != 0 && !st.has(Status::PENETRATING)) as u16
+            })),
             // Bits 0–14 (a u16 holds them); the friction bits above have
             // their own columns.
             Field::Flags { law } => column.extend(status(law).map(|st| st.bits() as u16)),

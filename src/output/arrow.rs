@@ -10,7 +10,7 @@ use arrow_array::{RecordBatch, RecordBatchReader, UInt32Array};
 use arrow_schema::SchemaRef;
 use parquet::errors::ParquetError;
 
-use super::parquet::{arrays, schema_of};
+use super::parquet::{arrays, schema_of, GridPoint};
 use super::samples::{SampleRows, Selection};
 /// Per-sample rows kept in memory as Arrow record batches, with the
 /// columns and schema `samples.parquet` would have: a run without an
@@ -19,20 +19,21 @@ use super::samples::{SampleRows, Selection};
 pub struct MemoryRows {
     selection: Selection,
     schema: SchemaRef,
-    point: Option<u32>,
+    point: Option<GridPoint>,
     sweep: bool,
     batches: Vec<RecordBatch>,
 }
 
 impl MemoryRows {
-    /// No rows yet, for the selected columns (`sweep`: with a `point` key).
-    pub fn new(selection: Selection, sweep: bool) -> Self {
+    /// No rows yet, for the selected columns (`sweep`: the axes' paths,
+    /// for the `point` key and the swept values' columns).
+    pub fn new(selection: Selection, sweep: &[String]) -> Self {
         let schema = Arc::new(schema_of(&selection, sweep));
         Self {
             selection,
             schema,
             point: None,
-            sweep,
+            sweep: !sweep.is_empty(),
             batches: Vec::new(),
         }
     }
@@ -43,7 +44,7 @@ impl MemoryRows {
     }
 
     /// Sets the grid point of the following rows (a sweep).
-    pub fn set_point(&mut self, point: Option<u32>) {
+    pub fn set_point(&mut self, point: Option<GridPoint>) {
         self.point = point;
     }
 
@@ -52,9 +53,10 @@ impl MemoryRows {
         if rows.is_empty() {
             return Ok(());
         }
-        let point = self
-            .sweep
-            .then(|| self.point.expect("a sweep sets its point"));
+        let point = self.sweep.then(|| {
+            let (i, v) = self.point.as_ref().expect("a sweep sets its point");
+            (*i, v.as_slice())
+        });
         let columns = arrays(&self.selection, point, rows);
         self.batches
             .push(RecordBatch::try_new(self.schema.clone(), columns)?);

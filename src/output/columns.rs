@@ -15,6 +15,8 @@ pub enum Kind {
     U8,
     /// A bit set or count below 65,536.
     U16,
+    /// True or false.
+    Bool,
 }
 
 /// Which value of a sample (or of a drop's impact) a column holds: what a
@@ -29,6 +31,8 @@ pub enum Field {
     Interval,
     Centre(usize),
     Quaternion(usize),
+    /// The orientation's Bryan angles ψ, θ, φ (degrees).
+    Bryan(usize),
     Velocity(usize),
     Omega(usize),
     EnergyBefore,
@@ -69,6 +73,11 @@ pub enum Field {
         plane: usize,
     },
     Active {
+        law: usize,
+    },
+    /// The sample impacts under the law: some contact approaches (and the
+    /// body does not start inside a plane).
+    Impacted {
         law: usize,
     },
     Flags {
@@ -123,6 +132,7 @@ struct Spec {
 
 const XYZ: &[&str] = &["x", "y", "z"];
 const WXYZ: &[&str] = &["w", "x", "y", "z"];
+const BRYAN: &[&str] = &["psi", "theta", "phi"];
 const ONE: &[&str] = &[];
 
 const fn spec(
@@ -157,13 +167,17 @@ const fn with_friction(mut s: Spec) -> Spec {
     s
 }
 
-use Kind::{Float, U16, U8};
+use Kind::{Bool, Float, U16, U8};
 use Repeat::{LawGroup, Once, PlaneGroup};
+
+/// What the Bryan-angle columns hold.
+const BRYAN_MEANING: &str = "the orientation as Bryan angles, A = Rx(ψ)·Ry(θ)·Rz(φ) (the scene's `bryan_deg`): ψ, φ in (−180, 180], θ in [−90, 90]; θ = ±90 is gimbal lock, where φ = 0";
 
 /// A contact scene's row: one per sample, after `sample` (u64).
 #[rustfmt::skip]
 const CONTACT: &[Spec] = &[
     spec("q_{axis}", Once, WXYZ, Float, "1", "orientation drawn, unit quaternion body → world, w ≥ 0", |i| Field::Quaternion(i.axis)),
+    spec("{axis}_deg", Once, BRYAN, Float, "deg", BRYAN_MEANING, |i| Field::Bryan(i.axis)),
     spec("v_{axis}", Once, XYZ, Float, "m/s", "velocity before (world)", |i| Field::Velocity(i.axis)),
     spec("omega_{axis}", Once, XYZ, Float, "rad/s", "angular velocity before (body)", |i| Field::Omega(i.axis)),
     spec("energy_before", Once, ONE, Float, "J", "kinetic energy before", |_| Field::EnergyBefore),
@@ -176,6 +190,7 @@ const CONTACT: &[Spec] = &[
     per_plane(spec("vn_after_{law}_{plane}", LawGroup, ONE, Float, "m/s", "normal velocity of the contact point after", |i| Field::VnAfter { law: i.law, plane: i.plane })),
     with_friction(per_plane(spec("tangential_impulse_{law}_{plane}", LawGroup, ONE, Float, "N·s", "|f|, the tangential impulse's magnitude", |i| Field::TangentialImpulse { law: i.law, plane: i.plane }))),
     with_friction(per_plane(spec("sliding_speed_{law}_{plane}", LawGroup, ONE, Float, "m/s", "|c⁺_t|, the contact point's sliding speed after", |i| Field::SlidingSpeed { law: i.law, plane: i.plane }))),
+    spec("impacted_{law}", LawGroup, ONE, Bool, "", "some contact approached: the sample is an impact (the summary's `impacting`)", |i| Field::Impacted { law: i.law }),
     spec("active_{law}", LawGroup, ONE, U8, "", "bit i: the i-th touching plane (scene order) took an impulse", |i| Field::Active { law: i.law }),
     spec("flags_{law}", LawGroup, ONE, U16, "", "status bits 0–14: 0–2 approaching, 4–6 active, 9 energy_gain, 10 degenerate, 11 jammed, 12 unsolved, 13 penetrating, 14 recomputed by the f64 reference (8 is internal)", |i| Field::Flags { law: i.law }),
     with_friction(spec("sticking_{law}", LawGroup, ONE, U8, "", "bit i: the i-th touching plane ended sticking", |i| Field::Sticking { law: i.law })),
@@ -190,6 +205,7 @@ const DROP: &[Spec] = &[
     spec("interval", Once, ONE, Float, "s", "time since the previous impact (since release for the first)", |_| Field::Interval),
     spec("centre_{axis}", Once, XYZ, Float, "m", "centre (world)", |i| Field::Centre(i.axis)),
     spec("q_{axis}", Once, WXYZ, Float, "1", "orientation, unit quaternion body → world, w ≥ 0", |i| Field::Quaternion(i.axis)),
+    spec("{axis}_deg", Once, BRYAN, Float, "deg", BRYAN_MEANING, |i| Field::Bryan(i.axis)),
     spec("v_{axis}", Once, XYZ, Float, "m/s", "velocity before (world)", |i| Field::Velocity(i.axis)),
     spec("omega_{axis}", Once, XYZ, Float, "rad/s", "angular velocity before (body)", |i| Field::Omega(i.axis)),
     spec("energy_before", Once, ONE, Float, "J", "kinetic energy before", |_| Field::EnergyBefore),
@@ -327,8 +343,10 @@ impl RowLayout {
 /// kind of row its table.
 pub fn reference_markdown() -> String {
     let mut s = String::from(
-        "Keys first: `replicate` (u32, RQMC runs: `sample >> log2_points`), `point` (u32, \
-         sweeps), `sample` (u64), and in a drop `law` (string). `LAW` is a law's name, \
+        "Keys first: `point` (u32, sweeps) and one `sweep_PATH` column (f64) per swept field \
+         with the point's value (`body.semi_axes[2]` → `sweep_body_semi_axes_2`), \
+         `replicate` (u32, RQMC runs: `sample >> log2_points`), `sample` (u64), and in a \
+         drop `law` (string). `LAW` is a law's name, \
          `PLANE` a plane's (at contact: the touching planes, in scene order). Floats are the \
          run's precision (a drop's are f64).\n",
     );
@@ -356,6 +374,7 @@ pub fn reference_markdown() -> String {
                 Float => "float",
                 U8 => "u8",
                 U16 => "u16",
+                Bool => "bool",
             };
             let unit = if spec.unit.is_empty() {
                 "–"

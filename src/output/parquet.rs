@@ -29,7 +29,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 
 use arrow_array::{
-    ArrayRef, Float32Array, Float64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
+    ArrayRef, BooleanArray, Float32Array, Float64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
     UInt8Array,
 };
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
@@ -138,14 +138,19 @@ impl Compression {
 }
 
 /// How `samples.parquet` is written.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct WriteOptions {
     pub compression: Compression,
     /// Encoding threads (at least one).
     pub threads: usize,
-    /// A sweep: rows carry their grid point in a `point` column.
-    pub sweep: bool,
+    /// A sweep's axes (their paths; empty without a sweep): rows carry
+    /// their grid point in a `point` column and each axis's value in a
+    /// `sweep_PATH` column ([`crate::output::sweep_column`]).
+    pub sweep: Vec<String>,
 }
+
+/// A sweep's grid point: its index and its values, one per axis.
+pub type GridPoint = (u32, Vec<f64>);
 
 /// The float columns' encoding.
 pub const FLOAT_ENCODING: &str = "BYTE_STREAM_SPLIT";
@@ -186,7 +191,7 @@ pub struct SamplesWriter {
     /// Batches of the row group being filled, and their rows.
     buffer: Vec<SampleRows>,
     buffered: usize,
-    point: Option<u32>,
+    point: Option<GridPoint>,
     sweep: bool,
     encoders: rayon::ThreadPool,
     in_flight: usize,
@@ -204,7 +209,7 @@ impl SamplesWriter {
         selection: Selection,
         opts: WriteOptions,
     ) -> Result<Self, ParquetError> {
-        let schema = Arc::new(schema_of(&selection, opts.sweep));
+        let schema = Arc::new(schema_of(&selection, &opts.sweep));
         let props = Arc::new(properties(&schema, &selection, opts.compression));
         let parquet = ArrowSchemaConverter::new()
             .with_coerce_types(props.coerce_types())
@@ -234,7 +239,7 @@ impl SamplesWriter {
             buffer: Vec::new(),
             buffered: 0,
             point: None,
-            sweep: opts.sweep,
+            sweep: !opts.sweep.is_empty(),
             encoders,
             in_flight: IN_FLIGHT_PER_THREAD * threads,
             slots,
@@ -251,7 +256,7 @@ impl SamplesWriter {
     }
 
     /// Sets the grid point written with the following rows (a sweep).
-    pub fn set_point(&mut self, point: Option<u32>) -> Result<(), ParquetError> {
+    pub fn set_point(&mut self, point: Option<GridPoint>) -> Result<(), ParquetError> {
         self.flush()?;
         self.point = point;
         Ok(())
@@ -282,10 +287,13 @@ impl SamplesWriter {
         self.rows += rows as u64;
         let index = self.groups;
         let (factory, schema) = (self.factory.clone(), self.schema.clone());
-        let (selection, point) = (self.selection.clone(), self.sweep.then_some(self.point));
+        let selection = self.selection.clone();
+        let point = self
+            .sweep
+            .then(|| self.point.clone().expect("a sweep sets its point"));
         let tx = self.encoded.clone().expect("open until finish");
         self.encoders.spawn(move || {
-            let point = point.map(|p| p.expect("a sweep sets its point"));
+            let point = point.as_ref().map(|(i, v)| (*i, v.as_slice()));
             let columns = transpose(
                 batches
                     .into_iter()
@@ -327,16 +335,20 @@ impl SamplesWriter {
     }
 }
 
-/// A batch's selected columns, in the schema's order (`point` for a sweep).
+/// A batch's selected columns, in the schema's order (`point` and the
+/// swept values for a sweep).
 pub(super) fn arrays(
     selection: &Selection,
-    point: Option<u32>,
+    point: Option<(u32, &[f64])>,
     mut b: SampleRows,
 ) -> Vec<ArrayRef> {
     let n = b.len();
     let mut cols: Vec<ArrayRef> = Vec::new();
-    if let Some(p) = point {
+    if let Some((p, values)) = point {
         cols.push(Arc::new(UInt32Array::from(vec![p; n])));
+        for &x in values {
+            cols.push(Arc::new(Float64Array::from(vec![x; n])));
+        }
     }
     if let Some(log2) = selection.replicate_log2() {
         cols.push(Arc::new(UInt32Array::from_iter_values(
@@ -361,6 +373,7 @@ pub(super) fn arrays(
         cols.push(match c.kind {
             Kind::U8 => Arc::new(UInt8Array::from_iter_values(v.iter().map(|&x| x as u8))),
             Kind::U16 => Arc::new(UInt16Array::from(v)),
+            Kind::Bool => Arc::new(BooleanArray::from_iter(v.iter().map(|&x| Some(x != 0)))),
             Kind::Float => unreachable!("an integer column"),
         });
     }
@@ -446,10 +459,17 @@ fn write_in_order(
 }
 
 /// The Arrow schema of the selected columns.
-pub(super) fn schema_of(selection: &Selection, sweep: bool) -> Schema {
+pub(super) fn schema_of(selection: &Selection, sweep: &[String]) -> Schema {
     let mut fields = Vec::new();
-    if sweep {
+    if !sweep.is_empty() {
         fields.push(Field::new("point", DataType::UInt32, false));
+        for path in sweep {
+            fields.push(Field::new(
+                crate::output::sweep_column(path),
+                DataType::Float64,
+                false,
+            ));
+        }
     }
     if selection.replicate_log2().is_some() {
         fields.push(Field::new("replicate", DataType::UInt32, false));
@@ -469,6 +489,7 @@ pub(super) fn schema_of(selection: &Selection, sweep: bool) -> Schema {
         let t = match c.kind {
             Kind::U8 => DataType::UInt8,
             Kind::U16 => DataType::UInt16,
+            Kind::Bool => DataType::Boolean,
             Kind::Float => unreachable!("an integer column"),
         };
         fields.push(Field::new(&c.name, t, false));
@@ -501,6 +522,10 @@ fn properties(
             ),
         ]));
     for f in schema.fields() {
+        // A swept value is one number per grid point: the dictionary.
+        if f.name().starts_with("sweep_") {
+            continue;
+        }
         let path = ColumnPath::from(f.name().as_str());
         let encoding = match f.data_type() {
             DataType::Float32 | DataType::Float64 => Encoding::BYTE_STREAM_SPLIT,
@@ -508,7 +533,7 @@ fn properties(
             DataType::UInt64 => Encoding::DELTA_BINARY_PACKED,
             // Bit sets and counts: plain, left to the codec. A dictionary
             // made the files 1.5 % smaller and cost 12 % more CPU.
-            DataType::UInt8 | DataType::UInt16 => Encoding::PLAIN,
+            DataType::UInt8 | DataType::UInt16 | DataType::Boolean => Encoding::PLAIN,
             // `point` (one value per row group) and `law` (a few names):
             // the dictionary (RLE) encoding.
             _ => continue,
@@ -566,7 +591,7 @@ mod tests {
         let opts = WriteOptions {
             compression: Compression::None,
             threads: 2,
-            sweep: false,
+            sweep: Vec::new(),
         };
         let run = || -> Result<u64, ParquetError> {
             let mut w = SamplesWriter::new(full, selection(), opts)?;

@@ -12,6 +12,13 @@ pub struct Bryan {
     pub phi: f64,
 }
 
+impl Bryan {
+    /// `[ψ, θ, φ]` in degrees.
+    pub fn degrees(self) -> [f64; 3] {
+        [self.psi, self.theta, self.phi].map(f64::to_degrees)
+    }
+}
+
 fn rx(t: f64) -> DMat3 {
     let (s, c) = t.sin_cos();
     DMat3::from_cols(DVec3::X, DVec3::new(0.0, c, s), DVec3::new(0.0, -s, c))

@@ -9,6 +9,7 @@ mod support;
 mod accuracy_ladder;
 mod compliant_convergence;
 mod compliant_friction;
+mod derived_columns;
 mod docs_columns;
 mod drop_lanes;
 mod drop_runs;

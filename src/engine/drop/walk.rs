@@ -8,7 +8,7 @@
 use crate::kernel::{Status, Strike};
 use crate::output::columns::Field;
 use crate::output::samples::SampleRows;
-use crate::physics::{quaternion_from_matrix, Motion, State};
+use crate::physics::{bryan_from_matrix, quaternion_from_matrix, Motion, State};
 use crate::stats::accumulators::LawAcc;
 use crate::stats::drops::{DropAcc, Ending, SEQUENCE_IMPACTS, SIMULTANEITY_TOLERANCES};
 
@@ -329,12 +329,18 @@ fn push_drop(rows: &mut SampleRows, r: &DropRow) {
     let o = r.strike;
     let q = quaternion_from_matrix(m.rotation);
     let q = [q.w, q.x, q.y, q.z];
+    let bryan = if rows.fills_any(|f| matches!(f, Field::Bryan(_))) {
+        bryan_from_matrix(m.rotation).degrees()
+    } else {
+        [f64::NAN; 3]
+    };
     for (k, field) in rows.float_fields().iter().enumerate() {
         let v = match *field {
             Field::Time => r.time,
             Field::Interval => r.interval,
             Field::Centre(c) => m.centre[c],
             Field::Quaternion(c) => q[c],
+            Field::Bryan(c) => bryan[c],
             Field::Velocity(c) => m.velocity[c],
             Field::Omega(c) => m.omega[c],
             Field::EnergyBefore => o.energy_before,
