@@ -168,7 +168,12 @@ pub fn run(
 }
 
 /// A target's error: the field is `target` (or the flag that set it).
-fn target_error(src: &SceneText, overrides: &Overrides, field: &str, message: String) -> StudyError {
+fn target_error(
+    src: &SceneText,
+    overrides: &Overrides,
+    field: &str,
+    message: String,
+) -> StudyError {
     let e = SceneError {
         file: src.file.clone(),
         line: crate::config::line_of(&src.text, &["target"]),
@@ -284,7 +289,9 @@ pub fn run_to_target(
             } else {
                 ran.saturating_mul(4)
             };
-            want.div_ceil(batch).saturating_mul(batch).min(target.max_samples)
+            want.div_ceil(batch)
+                .saturating_mul(batch)
+                .min(target.max_samples)
         };
         // RQMC runs whole powers of two per replicate: none past the budget.
         if reached || ran >= target.max_samples || next <= ran || next > target.max_samples {

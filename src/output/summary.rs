@@ -333,7 +333,8 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
             for (mask, &c) in b.sets.iter().enumerate() {
                 if c > 0 {
                     planes_hit.insert(active_set_name(mask, names), of_reached(c));
-                    planes_hit_ci95.insert(active_set_name(mask, names), Interval::wilson(c, b.reached));
+                    planes_hit_ci95
+                        .insert(active_set_name(mask, names), Interval::wilson(c, b.reached));
                 }
             }
             let mut within = Named::default();
@@ -365,7 +366,12 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
             ("stalled", Ending::Stalled),
         ]
         .into_iter()
-        .map(|(name, e)| (name.to_string(), Interval::wilson(a.endings[e as usize], a.samples)))
+        .map(|(name, e)| {
+            (
+                name.to_string(),
+                Interval::wilson(a.endings[e as usize], a.samples),
+            )
+        })
         .collect(),
     );
     let up = |k: usize| a.final_axis_up[k] as f64 / n;
@@ -449,7 +455,7 @@ fn headline(
 fn law_summary(
     acc: &LawAcc,
     contacts: &[String],
-    pilots: &[f64; 3],
+    pilots: &[f64],
     by_active_set: bool,
 ) -> LawSummary {
     let mut stats = headline(

@@ -135,9 +135,11 @@ impl Summary {
             if let Some(only) = &p.energy_gain_only {
                 let parts: Vec<String> = only
                     .iter()
-                    .map(|(law, f)| match p.energy_gain_only_ci95.as_ref().and_then(|c| c.get(law)) {
-                        Some(ci) => format!("{law} only {}", share(*f, ci)),
-                        None => format!("{law} only {f:.2e}"),
+                    .map(|(law, f)| {
+                        match p.energy_gain_only_ci95.as_ref().and_then(|c| c.get(law)) {
+                            Some(ci) => format!("{law} only {}", share(*f, ci)),
+                            None => format!("{law} only {f:.2e}"),
+                        }
                     })
                     .collect();
                 let _ = write!(s, "; energy_gain in {}", parts.join(", "));
@@ -154,7 +156,12 @@ impl TargetSummary {
         let stats: Vec<String> = self
             .statistics
             .iter()
-            .map(|t| format!("{} ci95 {:.3e} (≤ {:.1e} asked)", t.statistic, t.achieved, t.ci95))
+            .map(|t| {
+                format!(
+                    "{} ci95 {:.3e} (≤ {:.1e} asked)",
+                    t.statistic, t.achieved, t.ci95
+                )
+            })
             .collect();
         let rounds: Vec<String> = self.rounds.iter().map(u64::to_string).collect();
         let verdict = if self.reached {

@@ -286,7 +286,11 @@ impl RunAcc {
                 stat(f, &|| format!("{}.rebound.{i}", law()), s);
             }
             for (i, r) in l.restitution.iter_mut().enumerate() {
-                let parts = [("resid", &mut r.resid), ("y", &mut r.y), ("sum", &mut r.sum)];
+                let parts = [
+                    ("resid", &mut r.resid),
+                    ("y", &mut r.y),
+                    ("sum", &mut r.sum),
+                ];
                 for (part, m) in parts {
                     f(
                         &|| format!("{}.restitution.{i}.{part}", law()),

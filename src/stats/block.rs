@@ -6,7 +6,7 @@
 // form is what the loop vectoriser sees through.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
-use crate::config::{Keep, Quantiles, Scene, Statistic, Statistics};
+use crate::config::{Keep, Quantiles, Scene, Statistic, Statistics, MAX_DROP_PLANES};
 use crate::kernel::{Geometry, LawOut, Status};
 use crate::lanes::dispatch::{multiversioned, BLOCK};
 use crate::lanes::{select, Real};
@@ -84,7 +84,7 @@ pub(crate) struct StatsPlan {
     constant_spin: Option<f64>,
     /// Each recorded plane's restitution: the pilot ratio the restitution
     /// statistic's residuals are taken against ([`crate::stats::RatioOfSums`]).
-    pilot: [f64; 3],
+    pilot: [f64; MAX_DROP_PLANES],
 }
 
 impl StatsPlan {
@@ -115,8 +115,9 @@ impl StatsPlan {
 }
 
 /// The pilot ratio of each recorded plane's restitution statistic (its
-/// restitution; 0 past the planes).
-pub fn pilots(scene: &Scene) -> [f64; 3] {
+/// restitution; 0 past the planes): up to three touching planes at
+/// contact, every plane of a drop.
+pub fn pilots(scene: &Scene) -> [f64; MAX_DROP_PLANES] {
     let planes = scene.recorded_planes();
     std::array::from_fn(|i| {
         planes

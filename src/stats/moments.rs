@@ -348,7 +348,10 @@ impl RatioOfSums {
         );
         let cov = 0.5 * (vs - vr - vy);
         let delta = self.ratio(pilot) - pilot;
-        (vr - 2.0 * delta * cov + delta * delta * vy).max(0.0).sqrt() / self.y.mean()
+        (vr - 2.0 * delta * cov + delta * delta * vy)
+            .max(0.0)
+            .sqrt()
+            / self.y.mean()
     }
 
     pub fn ci95(&self, pilot: f64) -> f64 {
@@ -374,7 +377,9 @@ mod tests {
     fn ratio_of_sums_against_two_passes() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut uniform = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let e = 0.8;
@@ -399,7 +404,11 @@ mod tests {
             let z: Vec<f64> = pairs.iter().map(|&(x, y)| (x - ratio * y) / ybar).collect();
             let zbar = z.iter().sum::<f64>() / n;
             let sd = (z.iter().map(|v| (v - zbar).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-            assert!((r.ratio(e) - ratio).abs() < 1e-14, "{spread}: {}", r.ratio(e));
+            assert!(
+                (r.ratio(e) - ratio).abs() < 1e-14,
+                "{spread}: {}",
+                r.ratio(e)
+            );
             assert!(
                 (r.sd(e) - sd).abs() < 1e-6 * sd,
                 "{spread}: sd {} vs {sd}",

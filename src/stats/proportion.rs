@@ -17,8 +17,16 @@ pub fn wilson(k: u64, n: u64) -> [f64; 2] {
     let denom = 1.0 + z2 / nf;
     let centre = (p + z2 / (2.0 * nf)) / denom;
     let half = Z975 / denom * (p * (1.0 - p) / nf + z2 / (4.0 * nf * nf)).sqrt();
-    let low = if k == 0 { 0.0 } else { (centre - half).max(0.0) };
-    let high = if k >= n { 1.0 } else { (centre + half).min(1.0) };
+    let low = if k == 0 {
+        0.0
+    } else {
+        (centre - half).max(0.0)
+    };
+    let high = if k >= n {
+        1.0
+    } else {
+        (centre + half).min(1.0)
+    };
     [low, high]
 }
 
@@ -59,7 +67,10 @@ mod tests {
             (500, 1000, 0.4690696003681042, 0.5309303996318958),
         ] {
             let [l, h] = wilson(k, n);
-            assert!((l - lo).abs() < 1e-15 && (h - hi).abs() < 1e-15, "{k}/{n}: {l} {h}");
+            assert!(
+                (l - lo).abs() < 1e-15 && (h - hi).abs() < 1e-15,
+                "{k}/{n}: {l} {h}"
+            );
         }
         assert!(wilson(0, 0)[0].is_nan());
     }

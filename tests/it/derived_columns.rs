@@ -29,7 +29,14 @@ fn derived_columns_agree_with_the_rows_and_the_summary() {
     let d = tmpdir("derived-columns");
     let out = d.join("out");
     let o = bin()
-        .args(["run", "--samples", "2000", "--per-sample", "--format", "json"])
+        .args([
+            "run",
+            "--samples",
+            "2000",
+            "--per-sample",
+            "--format",
+            "json",
+        ])
         .arg("--out")
         .arg(&out)
         .arg(repo("configs/sweep_aspect_ratio.toml"))
@@ -40,43 +47,88 @@ fn derived_columns_agree_with_the_rows_and_the_summary() {
     let rows = read_parquet(&out.join("samples.parquet"));
     let f32s = |name: &str| -> Vec<f64> {
         rows.iter()
-            .flat_map(|b| b.column_by_name(name).unwrap().as_primitive::<Float32Type>().values().to_vec())
+            .flat_map(|b| {
+                b.column_by_name(name)
+                    .unwrap()
+                    .as_primitive::<Float32Type>()
+                    .values()
+                    .to_vec()
+            })
             .map(f64::from)
             .collect()
     };
     let f64s = |name: &str| -> Vec<f64> {
         rows.iter()
-            .flat_map(|b| b.column_by_name(name).unwrap().as_primitive::<Float64Type>().values().to_vec())
+            .flat_map(|b| {
+                b.column_by_name(name)
+                    .unwrap()
+                    .as_primitive::<Float64Type>()
+                    .values()
+                    .to_vec()
+            })
             .collect()
     };
     let point: Vec<u32> = rows
         .iter()
-        .flat_map(|b| b.column_by_name("point").unwrap().as_primitive::<UInt32Type>().values().to_vec())
+        .flat_map(|b| {
+            b.column_by_name("point")
+                .unwrap()
+                .as_primitive::<UInt32Type>()
+                .values()
+                .to_vec()
+        })
         .collect();
     let impacted: Vec<bool> = rows
         .iter()
-        .flat_map(|b| b.column_by_name("impacted_newton").unwrap().as_boolean().iter().map(|x| x.unwrap()).collect::<Vec<_>>())
+        .flat_map(|b| {
+            b.column_by_name("impacted_newton")
+                .unwrap()
+                .as_boolean()
+                .iter()
+                .map(|x| x.unwrap())
+                .collect::<Vec<_>>()
+        })
         .collect();
     let flags: Vec<u16> = rows
         .iter()
-        .flat_map(|b| b.column_by_name("flags_newton").unwrap().as_primitive::<UInt16Type>().values().to_vec())
+        .flat_map(|b| {
+            b.column_by_name("flags_newton")
+                .unwrap()
+                .as_primitive::<UInt16Type>()
+                .values()
+                .to_vec()
+        })
         .collect();
     let points = summary["points"].as_array().unwrap();
     for axis in summary["sweep"]["axes"].as_array().unwrap() {
         let path = axis["path"].as_str().unwrap();
         let name = impactmc::output::sweep_column(path);
         for (p, v) in point.iter().zip(f64s(&name)) {
-            assert_eq!(points[*p as usize]["values"][path].as_f64(), Some(v), "{name}");
+            assert_eq!(
+                points[*p as usize]["values"][path].as_f64(),
+                Some(v),
+                "{name}"
+            );
         }
     }
     let (psi, theta, phi) = (f32s("psi_deg"), f32s("theta_deg"), f32s("phi_deg"));
-    let q: Vec<Vec<f64>> = ["q_w", "q_x", "q_y", "q_z"].iter().map(|c| f32s(c)).collect();
+    let q: Vec<Vec<f64>> = ["q_w", "q_x", "q_y", "q_z"]
+        .iter()
+        .map(|c| f32s(c))
+        .collect();
     for s in 0..psi.len() {
         assert!((-180.0..=180.0).contains(&psi[s]) && (-180.0..=180.0).contains(&phi[s]));
         assert!((-90.0..=90.0).contains(&theta[s]));
-        let a = bryan_matrix(psi[s].to_radians(), theta[s].to_radians(), phi[s].to_radians());
+        let a = bryan_matrix(
+            psi[s].to_radians(),
+            theta[s].to_radians(),
+            phi[s].to_radians(),
+        );
         let b = DMat3::from_quat(DQuat::from_xyzw(q[1][s], q[2][s], q[3][s], q[0][s]).normalize());
-        let err = (a - b).to_cols_array().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let err = (a - b)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
         assert!(err < 1e-5, "sample {s}: {err}");
     }
     let mut per_point = vec![(0u64, 0u64); points.len()];

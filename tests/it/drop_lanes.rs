@@ -12,6 +12,7 @@ use crate::support::shipped_scene;
 use glam::{DMat3, DQuat, DVec3};
 use impactmc::config::{Keep, Placement, Scene};
 use impactmc::engine::drop::{start_of, DropCtx};
+use impactmc::output::columns::RowLayout;
 use impactmc::output::samples::{Floats, SampleRows};
 use impactmc::physics::{solve_impact, time_of_impact, Law, Motion, Pose, Rotation, State};
 use impactmc::sampler::Sampler;
@@ -19,31 +20,56 @@ use impactmc::stats::accumulators::{RunAcc, Shape};
 use impactmc::stats::drops::Ending;
 
 /// One impact's row: the walk (sample, law), bounce, planes, and the float
-/// columns (`output::columns`, the drop table).
+/// columns the comparison reads (`output::columns`, the drop table), in
+/// [`READ`] order.
 struct Row {
     walk: (u64, u32),
     planes: u16,
     f: Vec<f64>,
 }
 
+/// The drop-row float columns a [`Row`] keeps, by name.
+const READ: [&str; 20] = [
+    "interval",
+    "centre_x",
+    "centre_y",
+    "centre_z",
+    "q_w",
+    "q_x",
+    "q_y",
+    "q_z",
+    "v_x",
+    "v_y",
+    "v_z",
+    "omega_x",
+    "omega_y",
+    "omega_z",
+    "v_after_x",
+    "v_after_y",
+    "v_after_z",
+    "omega_after_x",
+    "omega_after_y",
+    "omega_after_z",
+];
+
 impl Row {
     fn interval(&self) -> f64 {
-        self.f[1]
+        self.f[0]
     }
     fn motion(&self) -> Motion {
         let v3 = |k: usize| DVec3::new(self.f[k], self.f[k + 1], self.f[k + 2]);
-        let q = DQuat::from_xyzw(self.f[6], self.f[7], self.f[8], self.f[5]);
+        let q = DQuat::from_xyzw(self.f[5], self.f[6], self.f[7], self.f[4]);
         Motion {
-            centre: v3(2),
+            centre: v3(1),
             rotation: DMat3::from_quat(q),
-            velocity: v3(9),
-            omega: v3(12),
+            velocity: v3(8),
+            omega: v3(11),
         }
     }
     /// The state after the impact.
     fn after(&self) -> (DVec3, DVec3) {
         let v3 = |k: usize| DVec3::new(self.f[k], self.f[k + 1], self.f[k + 2]);
-        (v3(18), v3(21))
+        (v3(14), v3(17))
     }
 }
 
@@ -59,11 +85,25 @@ fn rows(scene: &Scene, count: u64) -> (RunAcc, Vec<Row>) {
     let Floats::F64(cols) = &rows.floats else {
         panic!("drop rows are f64")
     };
+    let layout = RowLayout::of(scene);
+    let at = |name: &str| {
+        layout
+            .floats
+            .iter()
+            .position(|c| c.name == name)
+            .unwrap_or_else(|| panic!("no drop column {name}"))
+    };
+    let read: Vec<usize> = READ.iter().map(|n| at(n)).collect();
+    let planes = layout
+        .ints
+        .iter()
+        .position(|c| c.name == "planes")
+        .expect("planes");
     let out = (0..rows.index.len())
         .map(|r| Row {
             walk: (rows.index[r], rows.law[r]),
-            planes: rows.ints[1][r],
-            f: cols.iter().map(|c| c[r]).collect(),
+            planes: rows.ints[planes][r],
+            f: read.iter().map(|&k| cols[k][r]).collect(),
         })
         .collect();
     (acc, out)

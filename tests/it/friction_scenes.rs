@@ -267,7 +267,7 @@ fn paired_summary_counts_where_newton_gains_energy_and_stronge_does_not() {
     assert_eq!(newton_only, newton);
     let text = r.to_text();
     assert!(
-        text.contains("energy_gain in stronge only 0.00e0, newton only"),
+        text.contains("energy_gain in stronge only 0 (≤ 1.9e-4), newton only"),
         "{text}"
     );
 }

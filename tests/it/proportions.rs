@@ -19,7 +19,10 @@ const PHI_MINUS_2: f64 = 0.022750131948179195;
 fn sphere(mean_z: &str, o: Overrides) -> Scene {
     edited_scene(
         "floor_sphere",
-        &[("mean = [0.0, 0.0, -1.0]", &format!("mean = [0.0, 0.0, {mean_z}]"))],
+        &[(
+            "mean = [0.0, 0.0, -1.0]",
+            &format!("mean = [0.0, 0.0, {mean_z}]"),
+        )],
         &format!("proportions-{mean_z}"),
         &o,
     )
@@ -97,7 +100,10 @@ fn a_count_of_none_has_a_positive_upper_bound() {
     assert_eq!(pair[0], 0.0);
     assert!(pair[1].as_f64().unwrap() > 3e-5, "{pair}");
     let back: Summary = serde_json::from_value(json).unwrap();
-    assert_eq!(back.all_group("newton").unwrap().fractions_ci95["energy_gain"], ci);
+    assert_eq!(
+        back.all_group("newton").unwrap().fractions_ci95["energy_gain"],
+        ci
+    );
     let text = s.to_text();
     assert!(text.contains("energy_gain 0 (≤ 3.8e-5)"), "{text}");
 }
@@ -121,11 +127,17 @@ fn rqmc_proportion_intervals_come_from_the_replicates() {
     let k = (p * all.samples as f64).round() as u64;
     let pooled = Interval::wilson(k, all.samples);
     assert!((p - PHI_MINUS_2).abs() < pooled.half_width());
-    assert!(((ci.low() + ci.high()) / 2.0 - p).abs() < 1e-15, "{ci:?} about {p}");
+    assert!(
+        ((ci.low() + ci.high()) / 2.0 - p).abs() < 1e-15,
+        "{ci:?} about {p}"
+    );
     assert!(
         ci.half_width() < pooled.half_width(),
         "replicates {ci:?}, Wilson {pooled:?}"
     );
     assert!(all.fractions_gain["impacting"] > 1.0);
-    assert_eq!(all.fractions_ci95["energy_gain"], Interval::wilson(0, all.samples));
+    assert_eq!(
+        all.fractions_ci95["energy_gain"],
+        Interval::wilson(0, all.samples)
+    );
 }

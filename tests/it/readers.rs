@@ -361,6 +361,14 @@ fn python_readers_read_back_exactly_what_the_run_computed() {
                 outs.iter().map(|o| f(o.vn_after[i])).collect(),
             );
         }
+        // Approaching on some plane (bits 0–2), not penetrating (bit 13).
+        put(
+            format!("impacted_{name}"),
+            "bool",
+            outs.iter()
+                .map(|o| json!(o.status.bits() & 7 != 0 && o.status.bits() & (1 << 13) == 0))
+                .collect(),
+        );
         put(
             format!("active_{name}"),
             "uint8",

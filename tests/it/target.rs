@@ -31,7 +31,11 @@ fn energy_ratio_ci95(v: &Value) -> f64 {
         .as_object()
         .unwrap()
         .values()
-        .map(|l| l["groups"]["all"]["stats"]["energy_ratio"]["ci95"].as_f64().unwrap())
+        .map(|l| {
+            l["groups"]["all"]["stats"]["energy_ratio"]["ci95"]
+                .as_f64()
+                .unwrap()
+        })
         .fold(0.0, f64::max)
 }
 
@@ -115,7 +119,10 @@ fn a_budget_that_is_too_small_is_reported() {
 #[test]
 fn bad_targets_name_the_flag() {
     let e = run("target-bad", &["--target-ci", "energy_rati=1e-4"]).unwrap_err();
-    assert!(e.contains("--target-ci") && e.contains("\"energy_rati\""), "{e}");
+    assert!(
+        e.contains("--target-ci") && e.contains("\"energy_rati\""),
+        "{e}"
+    );
     let e = run("target-zero", &["--target-ci", "energy_ratio=0"]).unwrap_err();
     assert!(e.contains("--target-ci") && e.contains("got 0"), "{e}");
     let e = run("target-form", &["--target-ci", "energy_ratio"]).unwrap_err();

@@ -2,19 +2,22 @@
 column against the values the run's kernel computed for each sample (given by
 the caller, computed without the writer): the column's type in each reader,
 and every value exactly; and that the key-value metadata gives every float
-column a unit. The orientation quaternion, which the writer derives
-from the rotation matrix, is checked against that matrix. Called by
+column a unit. The orientation quaternion and Bryan angles, which the writer
+derives from the rotation matrix, are checked against that matrix. Called by
 tests/readers.rs.
 
 usage: check_values.py SAMPLES_PARQUET EXPECTED_JSON
 EXPECTED_JSON: {"columns": {name: {"type": "float32" | "float64" | "uint8" |
-                                            "uint16" | "uint32" | "uint64",
+                                            "uint16" | "uint32" | "uint64" |
+                                            "bool",
                                    "values": [...]}},
                 "rotation": [[r00, r01, ..., r22], ...]  (row-major, per row;
-                             present when the file has the quaternion),
+                             present when the file has the quaternion
+                             and the Bryan angles),
                 "tolerance": max |R(q) - R| allowed}
 """
 import json
+import math
 import sys
 
 import duckdb
@@ -29,8 +32,10 @@ TYPES = {
     "uint16": {"pyarrow": "uint16", "polars": "UInt16", "duckdb": "USMALLINT"},
     "uint32": {"pyarrow": "uint32", "polars": "UInt32", "duckdb": "UINTEGER"},
     "uint64": {"pyarrow": "uint64", "polars": "UInt64", "duckdb": "UBIGINT"},
+    "bool": {"pyarrow": "bool", "polars": "Boolean", "duckdb": "BOOLEAN"},
 }
 QUATERNION = ["q_w", "q_x", "q_y", "q_z"]
+BRYAN = ["psi_deg", "theta_deg", "phi_deg"]
 
 
 def read_all(path):
@@ -63,11 +68,24 @@ def rotation_of(w, x, y, z):
     ]
 
 
+def bryan_rotation(psi, theta, phi):
+    """Rx(psi) Ry(theta) Rz(phi), angles in degrees, row-major."""
+    sx, cx = math.sin(math.radians(psi)), math.cos(math.radians(psi))
+    sy, cy = math.sin(math.radians(theta)), math.cos(math.radians(theta))
+    sz, cz = math.sin(math.radians(phi)), math.cos(math.radians(phi))
+    rx = [[1, 0, 0], [0, cx, -sx], [0, sx, cx]]
+    ry = [[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]
+    rz = [[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]
+    mul = lambda a, b: [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+    m = mul(mul(rx, ry), rz)
+    return [m[i][j] for i in range(3) for j in range(3)]
+
+
 def main() -> int:
     path, expected_path = sys.argv[1], sys.argv[2]
     expected = json.load(open(expected_path))
     want = expected["columns"]
-    quaternion = QUATERNION if "rotation" in expected else []
+    quaternion = QUATERNION + BRYAN if "rotation" in expected else []
     problems = []
     for reader, (cols, types) in read_all(path).items():
         extra = sorted(set(cols) - set(want) - set(quaternion))
@@ -100,6 +118,20 @@ def main() -> int:
                 problems.append(f"{reader}: R(q) differs from the kernel's rotation by {worst}")
         else:
             problems.append(f"{reader}: no quaternion columns")
+        if not quaternion:
+            pass
+        elif all(b in cols for b in BRYAN):
+            worst = 0.0
+            for i, r in enumerate(expected["rotation"]):
+                a = [cols[c][i] for c in BRYAN]
+                if not (-180 <= a[0] <= 180 and -90 <= a[1] <= 90 and -180 <= a[2] <= 180):
+                    problems.append(f"{reader}: Bryan angles {a} out of range in row {i}")
+                    break
+                worst = max(worst, max(abs(x - y) for x, y in zip(bryan_rotation(*a), r)))
+            if worst > expected["tolerance"]:
+                problems.append(f"{reader}: the Bryan angles' rotation differs from the kernel's by {worst}")
+        else:
+            problems.append(f"{reader}: no Bryan-angle columns")
     meta = pq.read_metadata(path).metadata or {}
     units = json.loads(meta.get(b"impactmc.units", b"{}"))
     floats = [n for n, w in want.items() if w["type"].startswith("float")] + quaternion
