@@ -30,7 +30,7 @@ enum Command {
     },
     /// Run a scene's Monte Carlo study, print its summary and write the
     /// results folder.
-    Run(cli::run::RunArgs),
+    Run(Box<cli::run::RunArgs>),
     /// Run the hard-case families (stability suite) and print the table.
     Stress {
         /// Samples per case.

@@ -55,6 +55,23 @@ impl PointRun {
     }
 }
 
+/// A sweep of RQMC runs: every other point's differences against the
+/// first, paired by replicate ([`Summary::paired_with`]). Nothing for MC or
+/// without a sweep.
+fn pair_points(runs: &mut [PointRun]) {
+    if runs.len() < 2 || runs.iter().any(|p| p.result.replicates.is_empty()) {
+        return;
+    }
+    let reps: Vec<Vec<Summary>> = runs
+        .iter()
+        .map(|p| Summary::replicate_summaries(&p.scene, &p.result))
+        .collect();
+    let reference = runs[0].summary.clone();
+    for (p, r) in runs.iter_mut().zip(&reps).skip(1) {
+        p.summary.paired_points = Some(p.summary.paired_with(r, &reference, &reps[0], 0));
+    }
+}
+
 /// A finished run: the scene as given, every grid point's results, and
 /// the per-sample rows when asked for ([`Study::write`] writes the run
 /// folder).
@@ -398,6 +415,7 @@ fn run_once(
         };
         runs.push(PointRun::new(p.values, p.scene, result));
     }
+    pair_points(&mut runs);
     let (per_sample, samples) = match writer {
         Some(Rows::File(w, precision)) => (
             Some(PerSample {
@@ -496,6 +514,7 @@ pub fn merge_study(
         );
         runs.push(PointRun::new(p.values, p.scene, result));
     }
+    pair_points(&mut runs);
     let merge = MergeInfo {
         shard_count: checked.count,
         shards_merged: checked.shards.iter().map(|s| s.info.shard_index).collect(),

@@ -17,6 +17,8 @@ impl FromNull for GroupSummary {}
 impl FromNull for LawSummary {}
 impl FromNull for PairSummary {}
 impl FromNull for DropSummary {}
+impl FromNull for PointDifference {}
+impl FromNull for Named<PointDifference> {}
 impl FromNull for Interval {
     fn from_null() -> Option<Self> {
         Some(Interval::NAN)
@@ -86,6 +88,33 @@ impl GroupSummary {
             .or_else(|| self.fractions_ci95.get(name).map(Interval::half_width))
             .or_else(|| self.active_sets_ci95.get(name).map(Interval::half_width))
     }
+}
+
+/// One estimate's difference between a sweep point and the reference
+/// point, over the same samples.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PointDifference {
+    /// This point's estimate minus the reference point's.
+    #[serde(deserialize_with = "nan_if_null")]
+    pub difference: f64,
+    /// Its 95 % half-width, from the paired replicate differences.
+    #[serde(deserialize_with = "nan_if_null")]
+    pub ci95: f64,
+    /// The half-width if the points were independent, √(ci95ₖ² + ci95₀²):
+    /// what pairing saved.
+    #[serde(deserialize_with = "nan_if_null")]
+    pub unpaired_ci95: f64,
+}
+
+/// A sweep point's paired differences against the reference point, per
+/// law: every mean statistic, fraction and active set (`active_set_SET`)
+/// of the law's `all` group.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PointPairs {
+    /// The grid point compared with (the first).
+    pub reference_point: usize,
+    /// By law, by estimate.
+    pub laws: Named<Named<PointDifference>>,
 }
 
 /// How a run with a target precision (`[target]`, `--target-ci`) went.
@@ -302,6 +331,10 @@ pub struct Summary {
     /// A run with a target precision: its rounds and what they reached.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetSummary>,
+    /// A sweep point of an RQMC run: paired differences against the
+    /// reference point, from the replicates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paired_points: Option<PointPairs>,
 }
 
 /// The name of a sequence of sets of planes hit: `wall_x > floor+wall_y`,
@@ -658,7 +691,18 @@ impl Summary {
             paired,
             drops,
             target: None,
+            paired_points: None,
         }
+    }
+
+    /// The summaries of an RQMC run's replicates (none for MC), each as
+    /// [`Summary::new`] makes the run's from all samples.
+    pub fn replicate_summaries(scene: &Scene, result: &RunResult) -> Vec<Summary> {
+        result
+            .replicates
+            .iter()
+            .map(|acc| Self::of_acc(scene, acc, result))
+            .collect()
     }
 
     /// `summary.laws[law].groups.all`.

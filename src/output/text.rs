@@ -125,6 +125,27 @@ impl Summary {
                 drop_text(&mut s, d);
             }
         }
+        if let Some(pp) = &self.paired_points {
+            for (law, diffs) in pp.laws.iter() {
+                let parts: Vec<String> =
+                    ["energy_ratio", "omega_after_norm", "velocity_after_norm"]
+                        .iter()
+                        .filter_map(|k| diffs.get(k).map(|d| (k, d)))
+                        .map(|(k, d)| {
+                            format!(
+                                "{k} {:+.6} ± {:.2e} (unpaired ± {:.2e})",
+                                d.difference, d.ci95, d.unpaired_ci95
+                            )
+                        })
+                        .collect();
+                let _ = writeln!(
+                    s,
+                    "\n[{law}] minus point {}, paired by replicate: {}",
+                    pp.reference_point,
+                    parts.join(", ")
+                );
+            }
+        }
         for (pair, p) in self.paired.iter() {
             let er = &p.energy_ratio;
             let _ = write!(

@@ -28,6 +28,7 @@ mod golden_friction;
 mod kernel_vs_reference;
 mod kubernetes;
 mod layering;
+mod paired_points;
 mod physics_invariants;
 mod plots;
 mod proportions;
