@@ -208,7 +208,8 @@ fn target_error(
 /// last round's count, bit for bit. The next count is predicted from
 /// ci95·√N (the largest ratio², 5 % over, rounded up to whole batches, at
 /// least 1.25× and at most `max_samples`); under RQMC, whose error falls
-/// faster than N^-1/2, the points per replicate double instead.
+/// faster than N^-1/2, the points per replicate grow by the power of two
+/// at or above the half-widths' ratio (at least 2×).
 pub fn run_to_target(
     src: &SceneText,
     overrides: &Overrides,
@@ -294,7 +295,19 @@ pub fn run_to_target(
         let reached = statistics.iter().all(|t| t.reached);
         let rqmc = scene.sampling().replicates().is_some();
         let next = if rqmc {
-            ran.saturating_mul(2)
+            // Whole powers of two per replicate; the error falls at least
+            // as N^-1/2 and at best as N^-1, so the count grows by at least
+            // the half-widths' ratio (its square is the MC prediction).
+            let ratio = statistics
+                .iter()
+                .map(|t| t.achieved / t.ci95)
+                .fold(2.0f64, f64::max);
+            let grow = if ratio.is_finite() && ratio < 1e6 {
+                (ratio.ceil() as u64).next_power_of_two()
+            } else {
+                4
+            };
+            ran.saturating_mul(grow)
         } else {
             let factor = statistics
                 .iter()

@@ -162,3 +162,28 @@ fn a_target_in_the_scene_file() {
     assert_eq!(v["target"]["max_samples"].as_u64(), Some(50_000_000));
     assert!(energy_ratio_ci95(&v) <= 3e-4);
 }
+
+/// Under RQMC the rounds are whole powers of two per replicate, and the
+/// result is again the fixed-count run of the last round.
+#[test]
+fn an_rqmc_target_is_a_fixed_count_run() {
+    let flags = ["--sampling", "rqmc", "--samples", "16384"];
+    let v = run(
+        "target-rqmc",
+        &[&flags[..], &["--target-ci", "energy_ratio=1e-4"]].concat(),
+    )
+    .unwrap();
+    let t = &v["target"];
+    assert_eq!(t["reached"], true, "{t}");
+    let last = v["samples"].as_u64().unwrap();
+    assert!(last.is_power_of_two() && last > 16384, "{last}");
+    assert!(energy_ratio_ci95(&v) <= 1e-4);
+    let fixed = run(
+        "target-rqmc-fixed",
+        &["--sampling", "rqmc", "--samples", &last.to_string()],
+    )
+    .unwrap();
+    let mut strip = without_timing(v.clone());
+    strip.as_object_mut().unwrap().remove("target");
+    assert_eq!(strip, without_timing(fixed));
+}
