@@ -6,7 +6,7 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::{Float32Type, Float64Type, UInt16Type, UInt32Type};
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::support::{assert_succeeded, bin, json_file, read_parquet, repo, tmpdir};
+use crate::support::{assert_succeeded, bin, column, json_file, read_parquet, repo, tmpdir};
 
 /// Rx(ψ)·Ry(θ)·Rz(φ) from the paper's eq. 8–11, written out here.
 fn bryan_matrix(psi: f64, theta: f64, phi: f64) -> DMat3 {
@@ -46,38 +46,13 @@ fn derived_columns_agree_with_the_rows_and_the_summary() {
     let summary = json_file(&out.join("summary.json"));
     let rows = read_parquet(&out.join("samples.parquet"));
     let f32s = |name: &str| -> Vec<f64> {
-        rows.iter()
-            .flat_map(|b| {
-                b.column_by_name(name)
-                    .unwrap()
-                    .as_primitive::<Float32Type>()
-                    .values()
-                    .to_vec()
-            })
+        column::<Float32Type>(&rows, name)
+            .into_iter()
             .map(f64::from)
             .collect()
     };
-    let f64s = |name: &str| -> Vec<f64> {
-        rows.iter()
-            .flat_map(|b| {
-                b.column_by_name(name)
-                    .unwrap()
-                    .as_primitive::<Float64Type>()
-                    .values()
-                    .to_vec()
-            })
-            .collect()
-    };
-    let point: Vec<u32> = rows
-        .iter()
-        .flat_map(|b| {
-            b.column_by_name("point")
-                .unwrap()
-                .as_primitive::<UInt32Type>()
-                .values()
-                .to_vec()
-        })
-        .collect();
+    let f64s = |name: &str| column::<Float64Type>(&rows, name);
+    let point = column::<UInt32Type>(&rows, "point");
     let impacted: Vec<bool> = rows
         .iter()
         .flat_map(|b| {
@@ -89,16 +64,7 @@ fn derived_columns_agree_with_the_rows_and_the_summary() {
                 .collect::<Vec<_>>()
         })
         .collect();
-    let flags: Vec<u16> = rows
-        .iter()
-        .flat_map(|b| {
-            b.column_by_name("flags_newton")
-                .unwrap()
-                .as_primitive::<UInt16Type>()
-                .values()
-                .to_vec()
-        })
-        .collect();
+    let flags = column::<UInt16Type>(&rows, "flags_newton");
     let points = summary["points"].as_array().unwrap();
     for axis in summary["sweep"]["axes"].as_array().unwrap() {
         let path = axis["path"].as_str().unwrap();

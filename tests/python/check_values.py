@@ -81,6 +81,35 @@ def bryan_rotation(psi, theta, phi):
     return [m[i][j] for i in range(3) for j in range(3)]
 
 
+def quaternion_rotation(w, x, y, z):
+    """The rotation of q_w, q_x, q_y, q_z, or None where q_w < 0."""
+    return rotation_of(w, x, y, z) if w >= 0 else None
+
+
+def bryan_angles_rotation(psi, theta, phi):
+    """The rotation of the Bryan angles, or None where one is out of range."""
+    if -180 <= psi <= 180 and -90 <= theta <= 90 and -180 <= phi <= 180:
+        return bryan_rotation(psi, theta, phi)
+    return None
+
+
+def rotation_problems(reader, cols, expected, names, rotation):
+    """The columns `names`, turned into a rotation by `rotation`, against the
+    kernel's rotation of each row."""
+    if not all(c in cols for c in names):
+        return [f"{reader}: no {names} columns"]
+    worst = 0.0
+    for i, r in enumerate(expected["rotation"]):
+        values = [cols[c][i] for c in names]
+        m = rotation(*values)
+        if m is None:
+            return [f"{reader}: {names} = {values} out of range in row {i}"]
+        worst = max(worst, max(abs(a - b) for a, b in zip(m, r)))
+    if worst > expected["tolerance"]:
+        return [f"{reader}: the rotation of {names} differs from the kernel's by {worst}"]
+    return []
+
+
 def main() -> int:
     path, expected_path = sys.argv[1], sys.argv[2]
     expected = json.load(open(expected_path))
@@ -104,34 +133,9 @@ def main() -> int:
                     problems.append(f"{reader}: {name} has {len(got)} rows, expected {len(w['values'])}")
                 else:
                     problems.append(f"{reader}: {name}[{bad}] = {got[bad]!r}, the run computed {w['values'][bad]!r}")
-        if not quaternion:
-            pass
-        elif all(q in cols for q in QUATERNION):
-            worst = 0.0
-            for i, r in enumerate(expected["rotation"]):
-                q = [cols[c][i] for c in QUATERNION]
-                if q[0] < 0:
-                    problems.append(f"{reader}: q_w < 0 in row {i}")
-                    break
-                worst = max(worst, max(abs(a - b) for a, b in zip(rotation_of(*q), r)))
-            if worst > expected["tolerance"]:
-                problems.append(f"{reader}: R(q) differs from the kernel's rotation by {worst}")
-        else:
-            problems.append(f"{reader}: no quaternion columns")
-        if not quaternion:
-            pass
-        elif all(b in cols for b in BRYAN):
-            worst = 0.0
-            for i, r in enumerate(expected["rotation"]):
-                a = [cols[c][i] for c in BRYAN]
-                if not (-180 <= a[0] <= 180 and -90 <= a[1] <= 90 and -180 <= a[2] <= 180):
-                    problems.append(f"{reader}: Bryan angles {a} out of range in row {i}")
-                    break
-                worst = max(worst, max(abs(x - y) for x, y in zip(bryan_rotation(*a), r)))
-            if worst > expected["tolerance"]:
-                problems.append(f"{reader}: the Bryan angles' rotation differs from the kernel's by {worst}")
-        else:
-            problems.append(f"{reader}: no Bryan-angle columns")
+        if quaternion:
+            problems += rotation_problems(reader, cols, expected, QUATERNION, quaternion_rotation)
+            problems += rotation_problems(reader, cols, expected, BRYAN, bryan_angles_rotation)
     meta = pq.read_metadata(path).metadata or {}
     units = json.loads(meta.get(b"impactmc.units", b"{}"))
     floats = [n for n, w in want.items() if w["type"].startswith("float")] + quaternion
