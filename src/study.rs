@@ -12,12 +12,13 @@ use std::time::SystemTime;
 use polars::prelude::{DataFrame, PolarsError};
 use serde_json::json;
 
-use crate::config::sweep::{plan_text, Axis};
+use crate::config::sweep::{plan_text, Axis, Plan};
 use crate::config::RawScene;
 use crate::config::{Overrides, Precision, Scene, SceneError, SceneText, Target};
 use crate::engine::{run_with_samples, samples_run, RunError, RunOptions, SinkError, Watch};
 use crate::output::arrow::{ArrowTable, MemoryRows};
 use crate::output::manifest::{Manifest, MergeInfo, PerSample, ShardRef, Timing};
+use crate::output::paired::Spread;
 use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
 use crate::output::plots::run_plots;
 use crate::output::samples::{SampleRows, Selection};
@@ -55,20 +56,38 @@ impl PointRun {
     }
 }
 
-/// A sweep of RQMC runs: every other point's differences against the
-/// first, paired by replicate ([`Summary::paired_with`]). Nothing for MC or
-/// without a sweep.
-fn pair_points(runs: &mut [PointRun]) {
-    if runs.len() < 2 || runs.iter().any(|p| p.result.replicates.is_empty()) {
+/// A sweep's paired differences: every point but the reference against
+/// it ([`Summary::paired_with`]), by replicate under RQMC and by cluster
+/// of samples under MC. Nothing without a sweep, or where the points lack
+/// what pairs them (a shard's run).
+fn pair_points(runs: &mut [PointRun], reference: usize) {
+    if runs.len() < 2 || reference >= runs.len() {
         return;
     }
     let reps: Vec<Vec<Summary>> = runs
         .iter()
         .map(|p| Summary::replicate_summaries(&p.scene, &p.result))
         .collect();
-    let reference = runs[0].summary.clone();
-    for (p, r) in runs.iter_mut().zip(&reps).skip(1) {
-        p.summary.paired_points = Some(p.summary.paired_with(r, &reference, &reps[0], 0));
+    let base = runs[reference].summary.clone();
+    let base_clusters = runs[reference].result.clusters.clone();
+    for (i, p) in runs.iter_mut().enumerate() {
+        if i == reference {
+            continue;
+        }
+        let spread = if !reps[i].is_empty() && !reps[reference].is_empty() {
+            Spread::Replicates {
+                mine: &reps[i],
+                reference: &reps[reference],
+            }
+        } else if let (Some(mine), Some(theirs)) = (&p.result.clusters, &base_clusters) {
+            Spread::Clusters {
+                mine,
+                reference: theirs,
+            }
+        } else {
+            continue;
+        };
+        p.summary.paired_points = Some(p.summary.paired_with(&base, reference, &spread));
     }
 }
 
@@ -177,7 +196,7 @@ pub fn run(
     opts: &RunOptions,
     dir: Option<&Path>,
 ) -> Result<Study, StudyError> {
-    let (_, points) = plan_text(src, overrides)?;
+    let points = plan_text(src, overrides)?.points;
     match points[0].scene.target() {
         Some(t) => run_to_target(src, overrides, opts, dir, &points[0].scene, &t.clone()),
         None => run_once(src, overrides, opts, dir),
@@ -231,6 +250,7 @@ pub fn run_to_target(
     let empty = RunResult {
         acc: crate::stats::accumulators::RunAcc::shaped(Shape::of(scene)),
         replicates: Vec::new(),
+        clusters: None,
         nodes: Vec::new(),
         batches: 0,
         batches_run: 0,
@@ -347,7 +367,11 @@ fn run_once(
     opts: &RunOptions,
     dir: Option<&Path>,
 ) -> Result<Study, StudyError> {
-    let (axes, points) = plan_text(src, overrides)?;
+    let Plan {
+        axes,
+        points,
+        reference,
+    } = plan_text(src, overrides)?;
     let (file, text) = (&src.file, &src.text);
     let mut raw = src.raw(overrides)?;
     let mut staging = dir.map(Staging::new);
@@ -408,6 +432,12 @@ fn run_once(
                 .sum(),
         );
     }
+    // An MC sweep's points record cluster sums for their paired
+    // differences (RQMC pairs by replicate).
+    let opts = &RunOptions {
+        clusters: points.len() > 1 && points[0].scene.sampling().replicates().is_none(),
+        ..opts.clone()
+    };
     let started = SystemTime::now();
     let mut runs = Vec::with_capacity(points.len());
     let sweep = !axes.is_empty();
@@ -428,7 +458,7 @@ fn run_once(
         };
         runs.push(PointRun::new(p.values, p.scene, result));
     }
-    pair_points(&mut runs);
+    pair_points(&mut runs, reference);
     let (per_sample, samples) = match writer {
         Some(Rows::File(w, precision)) => (
             Some(PerSample {
@@ -477,7 +507,11 @@ pub fn merge_study(
     if let Some(o) = raw.output.as_mut() {
         o.per_sample = false;
     }
-    let (axes, points) = plan_text(&src, &Overrides::default())?;
+    let Plan {
+        axes,
+        points,
+        reference,
+    } = plan_text(&src, &Overrides::default())?;
     if points.len() != first.info.points {
         return Err(MergeError::State {
             path: first.dir.join("shard.json").display().to_string(),
@@ -527,7 +561,7 @@ pub fn merge_study(
         );
         runs.push(PointRun::new(p.values, p.scene, result));
     }
-    pair_points(&mut runs);
+    pair_points(&mut runs, reference);
     let merge = MergeInfo {
         shard_count: checked.count,
         shards_merged: checked.shards.iter().map(|s| s.info.shard_index).collect(),
@@ -575,7 +609,7 @@ impl Study {
             "samples": self.raw.samples,
             "seed": self.raw.seed,
             "throughput": {"samples_per_second": samples as f64 / wall, "wall_seconds": wall},
-            "sweep": {"axes": self.axes.iter().map(|a| json!({"path": a.path, "values": a.values})).collect::<Vec<_>>()},
+            "sweep": {"axes": self.axes.iter().map(|a| json!({"path": a.path, "values": a.values, "dimension": a.dimension})).collect::<Vec<_>>()},
             "target": self.points[0].summary.target,
             "points": self.points.iter().map(|p| json!({
                 "values": p.values.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
@@ -804,7 +838,7 @@ pub fn prepare(
     overrides: &Overrides,
     opts: &RunOptions,
 ) -> Result<Prepared, StudyError> {
-    let (_, points) = plan_text(src, overrides)?;
+    let points = plan_text(src, overrides)?.points;
     let scene = &points[0].scene;
     Ok(Prepared {
         name: scene.name().to_string(),

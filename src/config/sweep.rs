@@ -8,11 +8,15 @@ use crate::config::path as field_path;
 use crate::config::RawScene;
 use crate::config::{Overrides, Scene, SceneError, SceneText};
 
-/// One axis of the grid: a field path and its values.
+/// One swept field: its path, its values, and the grid dimension it
+/// varies along. A plain `[sweep]` entry is a dimension of its own; the
+/// fields of one `[[sweep.zip]]` group share one (equal-length lists that
+/// vary together).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Axis {
     pub path: String,
     pub values: Vec<f64>,
+    pub dimension: usize,
 }
 
 /// One grid point: the swept values (in axis order) and its scene.
@@ -20,6 +24,18 @@ pub struct Axis {
 pub struct Point {
     pub values: Vec<(String, f64)>,
     pub scene: Scene,
+}
+
+/// A scene expanded into its grid points.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The swept fields, in file order (none without a sweep).
+    pub axes: Vec<Axis>,
+    /// The grid points, the last dimension fastest (one without a sweep).
+    pub points: Vec<Point>,
+    /// The point the others' paired differences are taken against: the
+    /// first, or `sweep.reference`.
+    pub reference: usize,
 }
 
 /// Largest number of grid points accepted.
@@ -59,57 +75,198 @@ pub fn set_path(root: &mut toml::Value, path: &str, value: f64) -> Result<(), St
     field_path::set(root, path, number)
 }
 
-/// Reads the sweep axes of a raw scene, in file order.
-pub fn axes(file: &str, raw: &RawScene) -> Result<Vec<Axis>, SceneError> {
+/// A list of numbers, or why not.
+fn numbers(file: &str, field: &str, v: &toml::Value) -> Result<Vec<f64>, SceneError> {
+    let bad = || err(file, field, format!("must be an array of numbers, got {v}"));
+    let values: Vec<f64> = v
+        .as_array()
+        .ok_or_else(bad)?
+        .iter()
+        .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
+        .collect::<Option<_>>()
+        .ok_or_else(bad)?;
+    if values.is_empty() {
+        return Err(err(file, field, "must list at least one value".into()));
+    }
+    Ok(values)
+}
+
+/// Reads the sweep of a raw scene: its fields in file order, each with its
+/// dimension, and the reference entry if any. Keys are field paths, except
+/// `zip` (an array of tables of equal-length lists) and `reference`.
+pub fn axes(file: &str, raw: &RawScene) -> Result<(Vec<Axis>, Option<toml::Value>), SceneError> {
     let Some(table) = &raw.sweep else {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), None));
     };
-    let mut out = Vec::new();
-    for (path, v) in table {
-        let field = format!("sweep.{path:?}");
-        let arr = v.as_array().ok_or_else(|| {
-            err(
-                file,
-                &field,
-                format!("must be an array of numbers, got {v}"),
-            )
-        })?;
-        let values: Vec<f64> = arr
-            .iter()
-            .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
-            .collect::<Option<_>>()
+    let mut out: Vec<Axis> = Vec::new();
+    let mut reference = None;
+    let mut dimension = 0;
+    for (key, v) in table {
+        match key.as_str() {
+            "reference" => reference = Some(v.clone()),
+            "zip" => {
+                let groups = v.as_array().filter(|g| g.iter().all(|t| t.is_table()));
+                let Some(groups) = groups else {
+                    return Err(err(
+                        file,
+                        "sweep.zip",
+                        format!(
+                            "must be tables of fields that vary together ([[sweep.zip]]), got {v}"
+                        ),
+                    ));
+                };
+                for (g, group) in groups.iter().enumerate() {
+                    let group = group.as_table().expect("checked above");
+                    if group.is_empty() {
+                        return Err(err(
+                            file,
+                            &format!("sweep.zip[{g}]"),
+                            "must list at least one field".into(),
+                        ));
+                    }
+                    let mut length = None;
+                    for (path, values) in group {
+                        let field = format!("sweep.zip[{g}].{path:?}");
+                        let values = numbers(file, &field, values)?;
+                        match length {
+                            None => length = Some((path.clone(), values.len())),
+                            Some((ref first, n)) if n != values.len() => {
+                                return Err(err(
+                                    file,
+                                    &field,
+                                    format!(
+                                        "has {} values, but {first:?} in the same group has {n}: fields that vary together need lists of one length",
+                                        values.len()
+                                    ),
+                                ))
+                            }
+                            Some(_) => {}
+                        }
+                        out.push(Axis {
+                            path: path.clone(),
+                            values,
+                            dimension,
+                        });
+                    }
+                    dimension += 1;
+                }
+            }
+            path => {
+                let values = numbers(file, &format!("sweep.{path:?}"), v)?;
+                out.push(Axis {
+                    path: path.to_string(),
+                    values,
+                    dimension,
+                });
+                dimension += 1;
+            }
+        }
+    }
+    for (i, a) in out.iter().enumerate() {
+        if out[..i].iter().any(|b| b.path == a.path) {
+            return Err(err(file, "sweep", format!("{:?} is swept twice", a.path)));
+        }
+    }
+    Ok((out, reference))
+}
+
+/// The grid point `sweep.reference` names: a point's index (as in the
+/// `point` column), or a table of swept fields and values that matches
+/// exactly one point.
+fn reference_point(
+    file: &str,
+    reference: Option<&toml::Value>,
+    points: &[Point],
+) -> Result<usize, SceneError> {
+    let Some(r) = reference else {
+        return Ok(0);
+    };
+    let field = "sweep.reference";
+    if let Some(i) = r.as_integer() {
+        return usize::try_from(i)
+            .ok()
+            .filter(|&i| i < points.len())
             .ok_or_else(|| {
                 err(
                     file,
-                    &field,
-                    format!("must be an array of numbers, got {v}"),
+                    field,
+                    format!(
+                        "point {i} is not a grid point: the grid has points 0 to {}",
+                        points.len() - 1
+                    ),
+                )
+            });
+    }
+    let Some(table) = r.as_table() else {
+        return Err(err(
+            file,
+            field,
+            format!("must be a point's index or a table of swept fields and values, got {r}"),
+        ));
+    };
+    let mut wanted = Vec::new();
+    for (path, v) in table {
+        let x = v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .ok_or_else(|| {
+                err(
+                    file,
+                    &format!("{field}.{path:?}"),
+                    format!("must be a number, got {v}"),
                 )
             })?;
-        if values.is_empty() {
-            return Err(err(file, &field, "must list at least one value".into()));
+        if !points[0].values.iter().any(|(p, _)| p == path) {
+            return Err(err(
+                file,
+                &format!("{field}.{path:?}"),
+                format!("{path:?} is not a swept field"),
+            ));
         }
-        out.push(Axis {
-            path: path.clone(),
-            values,
-        });
+        wanted.push((path, x));
     }
-    Ok(out)
+    let matches: Vec<usize> = (0..points.len())
+        .filter(|&i| {
+            wanted
+                .iter()
+                .all(|(path, x)| points[i].values.iter().any(|(p, v)| p == *path && v == x))
+        })
+        .collect();
+    match matches.as_slice() {
+        [i] => Ok(*i),
+        [] => Err(err(file, field, format!("no grid point has {r}"))),
+        _ => Err(err(
+            file,
+            field,
+            format!(
+                "{} grid points have {r}: name a value for every dimension of the grid",
+                matches.len()
+            ),
+        )),
+    }
 }
 
 /// Expands a scene file into its grid points (one point without a sweep).
-pub fn plan(path: &Path, overrides: &Overrides) -> Result<(Vec<Axis>, Vec<Point>), SceneError> {
+pub fn plan(path: &Path, overrides: &Overrides) -> Result<Plan, SceneError> {
     plan_text(&SceneText::read(path)?, overrides)
 }
 
 /// Expands scene text into its grid points (one point without a sweep).
-pub fn plan_text(
-    src: &SceneText,
-    overrides: &Overrides,
-) -> Result<(Vec<Axis>, Vec<Point>), SceneError> {
+pub fn plan_text(src: &SceneText, overrides: &Overrides) -> Result<Plan, SceneError> {
     let (file, text) = (src.file.as_str(), src.text.as_str());
     let raw = src.raw(overrides)?;
-    let axes = axes(file, &raw)?;
-    let total: usize = axes.iter().map(|a| a.values.len()).product();
+    let (axes, reference) = axes(file, &raw)?;
+    // The length of each dimension: its fields' (equal) list length.
+    let mut lengths: Vec<usize> = Vec::new();
+    for a in &axes {
+        if a.dimension == lengths.len() {
+            lengths.push(a.values.len());
+        }
+    }
+    let total = lengths
+        .iter()
+        .try_fold(1usize, |n, &k| n.checked_mul(k))
+        .unwrap_or(usize::MAX);
     if total > MAX_POINTS {
         return Err(err(
             file,
@@ -131,15 +288,15 @@ pub fn plan_text(
     for flat in 0..total {
         let mut rem = flat;
         let mut values = Vec::new();
-        // Last axis fastest.
-        let mut idx = vec![0; axes.len()];
-        for (k, a) in axes.iter().enumerate().rev() {
-            idx[k] = rem % a.values.len();
-            rem /= a.values.len();
+        // Last dimension fastest.
+        let mut idx = vec![0; lengths.len()];
+        for (d, &n) in lengths.iter().enumerate().rev() {
+            idx[d] = rem % n;
+            rem /= n;
         }
         let mut doc = base_value.clone();
-        for (a, &i) in axes.iter().zip(&idx) {
-            let x = a.values[i];
+        for a in &axes {
+            let x = a.values[idx[a.dimension]];
             set_path(&mut doc, &a.path, x)
                 .map_err(|m| err(file, &format!("sweep.{:?}", a.path), m))?;
             values.push((a.path.clone(), x));
@@ -158,7 +315,12 @@ pub fn plan_text(
         })?;
         points.push(Point { values, scene });
     }
-    Ok((axes, points))
+    let reference = reference_point(file, reference.as_ref(), &points)?;
+    Ok(Plan {
+        axes,
+        points,
+        reference,
+    })
 }
 
 #[cfg(test)]

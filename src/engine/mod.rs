@@ -32,6 +32,7 @@ use crate::output::samples::SampleRows;
 use crate::sampler::{Sampler, ALL_ROWS};
 use crate::stats::accumulators::{RunAcc, Shape};
 use crate::stats::block::StatsPlan;
+use crate::stats::clusters::ClusterLog;
 use crate::stats::tree::{aligned_nodes, reduce_tree, Node, Shard, TreeStack};
 use crate::stats::RunResult;
 
@@ -112,6 +113,10 @@ pub struct RunOptions {
     pub sample_floats: Option<Vec<bool>>,
     /// Progress and cancellation for a caller on another thread.
     pub watch: Option<Arc<Watch>>,
+    /// Record cluster sums ([`crate::stats::clusters`]) for paired
+    /// differences with another run of the same samples (an MC sweep's
+    /// points). Ignored by a shard.
+    pub clusters: bool,
 }
 
 impl RunOptions {
@@ -213,11 +218,13 @@ pub type SampleSink<'a> = dyn FnMut(SampleRows) -> Result<(), SinkError> + Send 
 /// Why a [`SampleSink`] refused rows (kept as the source of [`RunError::Sink`]).
 pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
 
+#[allow(clippy::too_many_arguments)]
 fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR: bool>(
     scene: &Scene,
     plan: StatsPlan,
     batch_range: std::ops::Range<u64>,
     progress: &Progress,
+    clusters: Option<&ClusterLog>,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
@@ -261,6 +268,7 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
             r.reserve((hi - lo) as usize);
             r
         });
+        let mut recorder = clusters.map(ClusterLog::recorder);
         let mut first = lo;
         while first < hi {
             let count = ((hi - first) as usize).min(BLOCK);
@@ -272,7 +280,13 @@ fn run_typed<T: Real, const N: usize, const ROT: bool, const CPL: bool, const FR
                 &mut part,
                 rows.as_mut(),
             );
+            if let Some(r) = recorder.as_mut() {
+                r.block_done(&part);
+            }
             first += BLOCK as u64;
+        }
+        if let (Some(log), Some(r)) = (clusters, recorder) {
+            log.keep(b, r, &part);
         }
         part.flush();
         pool.give(work);
@@ -292,6 +306,7 @@ fn run_drops(
     keep: Keep,
     batch_range: std::ops::Range<u64>,
     progress: &Progress,
+    clusters: Option<&ClusterLog>,
     sink: Option<&mut SampleSink>,
     empty_rows: SampleRows,
 ) -> Result<Vec<(Node, RunAcc)>, SinkError> {
@@ -310,6 +325,10 @@ fn run_drops(
         let lo = b * batch;
         let hi = (lo + batch).min(total);
         ctx.run(lo, hi - lo, &mut part, rows.as_mut());
+        // A drop's cluster is its batch.
+        if let Some(log) = clusters {
+            log.keep(b, log.recorder(), &part);
+        }
         part.flush();
         progress.inc(hi - lo);
         (part, rows)
@@ -454,18 +473,27 @@ pub fn run_with_samples(
     if let Some(mask) = &opts.sample_floats {
         rows.fill_only(mask);
     }
+    let log = (opts.clusters && opts.shard.is_none())
+        .then(|| ClusterLog::new(crate::stats::clusters::blocks_per_cluster(scene)));
     let nodes = pool
         .install(|| {
             // The one choice of a batch body by the kind of scene.
             match scene.placement() {
-                Placement::Drop(start) => {
-                    run_drops(scene, *start, opts.keep, r, &progress, sink, rows)
-                }
+                Placement::Drop(start) => run_drops(
+                    scene,
+                    *start,
+                    opts.keep,
+                    r,
+                    &progress,
+                    log.as_ref(),
+                    sink,
+                    rows,
+                ),
                 Placement::Contact(_) => {
                     with_kernel!(
                         scene,
                         variant,
-                        run_typed(scene, plan, r, &progress, sink, rows)
+                        run_typed(scene, plan, r, &progress, log.as_ref(), sink, rows)
                     )
                 }
             }
@@ -495,9 +523,11 @@ pub fn run_with_samples(
         (Some(a), Some(b)) => Some(b - a),
         _ => None,
     };
+    let clusters = log.map(|l| l.finish(scene, &acc.laws));
     Ok(RunResult {
         acc,
         replicates,
+        clusters,
         nodes: kept,
         batches,
         batches_run: range.end - range.start,

@@ -8,6 +8,7 @@ pub mod columns;
 mod direct;
 pub mod manifest;
 pub mod named;
+pub mod paired;
 pub mod parquet;
 pub mod plots;
 mod replicated;

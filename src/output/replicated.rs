@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 
-use crate::output::summary::{Interval, Named, PointDifference, PointPairs, StatSummary, Summary};
+use crate::output::summary::{Interval, Named, StatSummary, Summary};
 use crate::stats::proportion;
 use crate::stats::student::replicate_interval;
 
@@ -136,110 +136,6 @@ impl Summary {
                 let path = format!("drops/{law}/sequences/{}", q.sequence);
                 share(&path, q.fraction, &mut q.ci95, f);
             }
-        }
-    }
-}
-
-/// A law's estimates in a summary's `all` group, by name: each mean
-/// statistic, fraction and active set (`active_set_SET`) with its point
-/// value and 95 % half-width (for a proportion, half its interval's width).
-fn law_estimates(s: &Summary, law: &str) -> Vec<(String, f64, f64)> {
-    let Some(g) = s.all_group(law) else {
-        return Vec::new();
-    };
-    let mut out: Vec<(String, f64, f64)> = g
-        .stats
-        .iter()
-        .map(|(k, st)| (k.clone(), st.mean, st.ci95))
-        .collect();
-    for (k, &p) in g.fractions.iter() {
-        let h = g
-            .fractions_ci95
-            .get(k)
-            .map_or(f64::NAN, Interval::half_width);
-        out.push((k.clone(), p, h));
-    }
-    for (k, &p) in g.active_sets.iter() {
-        let h = g
-            .active_sets_ci95
-            .get(k)
-            .map_or(f64::NAN, Interval::half_width);
-        out.push((format!("active_set_{k}"), p, h));
-    }
-    out
-}
-
-impl Summary {
-    /// This sweep point's paired differences against `reference` (grid
-    /// point `reference_point`), both RQMC runs of the same points: each
-    /// estimate's difference, with the 95 % half-width of the mean of the
-    /// R replicates' paired differences (Student t, R − 1 dof). `reps` and
-    /// `reference_reps` are the two runs' replicate summaries
-    /// ([`Summary::replicate_summaries`]), in replicate order.
-    pub fn paired_with(
-        &self,
-        reps: &[Summary],
-        reference: &Summary,
-        reference_reps: &[Summary],
-        reference_point: usize,
-    ) -> PointPairs {
-        let mut laws = Named::default();
-        for law in self.laws.keys() {
-            let base: HashMap<String, (f64, f64)> = law_estimates(reference, law)
-                .into_iter()
-                .map(|(k, v, h)| (k, (v, h)))
-                .collect();
-            let per_rep = |summaries: &[Summary]| -> Vec<HashMap<String, f64>> {
-                summaries
-                    .iter()
-                    .map(|r| {
-                        law_estimates(r, law)
-                            .into_iter()
-                            .map(|(k, v, _)| (k, v))
-                            .collect()
-                    })
-                    .collect()
-            };
-            let (mine, theirs) = (per_rep(reps), per_rep(reference_reps));
-            let mut diffs = Named::default();
-            for (name, value, half) in law_estimates(self, law) {
-                let Some(&(v0, h0)) = base.get(&name) else {
-                    continue;
-                };
-                // A replicate without a proportion has it at 0.
-                let proportion = !self
-                    .all_group(law)
-                    .is_some_and(|g| g.stats.contains_key(&name));
-                let d: Option<Vec<f64>> = mine
-                    .iter()
-                    .zip(&theirs)
-                    .map(|(a, b)| {
-                        let get = |m: &HashMap<String, f64>| {
-                            m.get(&name).copied().or(proportion.then_some(0.0))
-                        };
-                        Some(get(a)? - get(b)?)
-                    })
-                    .collect();
-                let ci95 = match d {
-                    Some(d) if d.len() == reps.len() && d.len() >= 2 => {
-                        replicate_interval(&d, f64::NAN).0
-                    }
-                    _ => f64::NAN,
-                };
-                diffs.insert(
-                    name,
-                    PointDifference {
-                        difference: value - v0,
-                        ci95,
-                        unpaired_ci95: (half * half + h0 * h0).sqrt(),
-                    },
-                );
-            }
-            laws.insert(law.clone(), diffs);
-        }
-        PointPairs {
-            reference_point,
-            laws,
         }
     }
 }

@@ -492,6 +492,7 @@ pub fn merge_point(
     RunResult {
         acc,
         replicates,
+        clusters: None,
         nodes: Vec::new(),
         batches,
         batches_run: batches - missing,

@@ -97,7 +97,8 @@ pub struct PointDifference {
     /// This point's estimate minus the reference point's.
     #[serde(deserialize_with = "nan_if_null")]
     pub difference: f64,
-    /// Its 95 % half-width, from the paired replicate differences.
+    /// Its 95 % half-width, from the paired differences (per replicate
+    /// under RQMC, per cluster of samples under MC).
     #[serde(deserialize_with = "nan_if_null")]
     pub ci95: f64,
     /// The half-width if the points were independent, √(ci95ₖ² + ci95₀²):
@@ -111,8 +112,14 @@ pub struct PointDifference {
 /// of the law's `all` group.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct PointPairs {
-    /// The grid point compared with (the first).
+    /// The grid point compared with (the first, or `sweep.reference`).
     pub reference_point: usize,
+    /// Where the paired intervals come from: `replicates` (RQMC, Student
+    /// t over the replicates' differences) or `clusters` (MC, Student t
+    /// over clusters of consecutive samples, delta method).
+    pub method: String,
+    /// The intervals' degrees of freedom: replicates or clusters, less one.
+    pub degrees_of_freedom: u64,
     /// By law, by estimate.
     pub laws: Named<Named<PointDifference>>,
 }

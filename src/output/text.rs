@@ -140,8 +140,14 @@ impl Summary {
                         .collect();
                 let _ = writeln!(
                     s,
-                    "\n[{law}] minus point {}, paired by replicate: {}",
+                    "\n[{law}] minus point {}, paired by {} ({} dof): {}",
                     pp.reference_point,
+                    if pp.method == "clusters" {
+                        "clusters of samples"
+                    } else {
+                        "replicate"
+                    },
+                    pp.degrees_of_freedom,
                     parts.join(", ")
                 );
             }

@@ -4,6 +4,7 @@
 
 pub mod accumulators;
 pub mod block;
+pub mod clusters;
 pub mod drops;
 mod histogram;
 mod moments;
@@ -30,6 +31,9 @@ pub struct RunResult {
     /// An RQMC run's replicates' accumulators, finished, in order (empty
     /// for MC): the spread of their estimates gives the intervals.
     pub replicates: Vec<RunAcc>,
+    /// Cluster sums, for paired differences with another run of the same
+    /// samples, when asked for ([`crate::engine::RunOptions::clusters`]).
+    pub clusters: Option<clusters::ClusterSums>,
     /// A sharded run's merge-tree nodes, unfinished, for `impactmc merge`
     /// (empty otherwise).
     pub nodes: Vec<(Node, RunAcc)>,

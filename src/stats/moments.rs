@@ -260,6 +260,13 @@ impl Moments {
     pub fn count(&self) -> u64 {
         self.n + self.pending_n
     }
+    /// The sum of the values (of the weighted values, weight 1), pending
+    /// sums included, without folding them: what the cluster sums of
+    /// [`crate::stats::clusters`] take the differences of.
+    pub fn sum(&self) -> f64 {
+        let pending: f64 = self.s1.0.iter().sum();
+        self.n as f64 * self.mean + self.pending_n as f64 * self.shift + pending
+    }
     pub fn mean(&self) -> f64 {
         self.merged().1
     }
