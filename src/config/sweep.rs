@@ -91,7 +91,8 @@ fn numbers(file: &str, field: &str, v: &toml::Value) -> Result<Vec<f64>, SceneEr
     Ok(values)
 }
 
-/// Reads the sweep of a raw scene: its fields in file order, each with its
+/// Reads the sweep of a raw scene: its fields (plain ones in path order,
+/// then each zip group's in path order: a TOML table's keys are sorted), each with its
 /// dimension, and the reference entry if any. Keys are field paths, except
 /// `zip` (an array of tables of equal-length lists) and `reference`.
 pub fn axes(file: &str, raw: &RawScene) -> Result<(Vec<Axis>, Option<toml::Value>), SceneError> {

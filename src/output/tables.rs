@@ -4,7 +4,7 @@
 use polars::prelude::*;
 
 use crate::output::staging::{OutputError, Staging};
-use crate::output::summary::{proportion, Interval, Named, StatSummary, Summary};
+use crate::output::summary::{proportion, Interval, Named, PointDifference, StatSummary, Summary};
 use crate::stats::accumulators::LawAcc;
 
 /// Column name of a swept field: `sweep_` and the path with every run of
@@ -153,6 +153,18 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
             rows.push((stats, fractions, cis, Named::default()));
         }
     }
+    // Each row's paired differences: a law's `all` row (not a bounce's).
+    let paired_at: Vec<Option<&Named<PointDifference>>> = law_col
+        .iter()
+        .zip(&group_col)
+        .zip(&bounce_col)
+        .map(|((law, group), bounce)| {
+            let pp = summary.paired_points.as_ref()?;
+            (group == "all" && bounce.is_none())
+                .then(|| pp.laws.get(law))
+                .flatten()
+        })
+        .collect();
     let height = rows.len();
     let mut cols = vec![
         Column::new("law".into(), law_col),
@@ -217,6 +229,39 @@ fn summary_frame_one(summary: &Summary) -> Result<DataFrame, PolarsError> {
                 .map(|r| r.3.get(name).copied().filter(|x| x.is_finite()))
                 .collect();
             cols.push(Column::new(format!("fraction_{name}_gain").into(), v));
+        }
+    }
+    // A sweep point's paired differences against the reference point, on
+    // each law's `all` row (of a drop: its first impact's).
+    if let Some(pp) = &summary.paired_points {
+        let at = &paired_at;
+        let reference: Vec<Option<u32>> = at
+            .iter()
+            .map(|d| d.map(|_| pp.reference_point as u32))
+            .collect();
+        cols.push(Column::new("paired_reference_point".into(), reference));
+        let mut names: Vec<&String> = Vec::new();
+        for d in pp.laws.iter().flat_map(|(_, d)| d.keys()) {
+            if !names.contains(&d) {
+                names.push(d);
+            }
+        }
+        for name in names {
+            for field in ["difference", "ci95"] {
+                let v: Vec<Option<f64>> = at
+                    .iter()
+                    .map(|d| {
+                        let d = (*d)?.get(name)?;
+                        let x = if field == "ci95" {
+                            d.ci95
+                        } else {
+                            d.difference
+                        };
+                        x.is_finite().then_some(x)
+                    })
+                    .collect();
+                cols.push(Column::new(format!("paired_{name}_{field}").into(), v));
+            }
         }
     }
     DataFrame::new(height, cols)
