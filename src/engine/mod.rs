@@ -324,10 +324,10 @@ fn run_drops(
         let mut rows = want_rows.then(|| empty_rows.clone());
         let lo = b * batch;
         let hi = (lo + batch).min(total);
-        ctx.run(lo, hi - lo, &mut part, rows.as_mut());
-        // A drop's cluster is its batch.
-        if let Some(log) = clusters {
-            log.keep(b, log.recorder(), &part);
+        let mut recorder = clusters.map(ClusterLog::recorder);
+        ctx.run_recorded(lo, hi - lo, &mut part, rows.as_mut(), recorder.as_mut());
+        if let (Some(log), Some(r)) = (clusters, recorder) {
+            log.keep(b, r, &part);
         }
         part.flush();
         progress.inc(hi - lo);

@@ -381,3 +381,93 @@ fn bad_zips_and_references_name_the_field() {
         assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "{err}");
     }
 }
+
+/// A drop sweep pairs its points' first impacts by clusters of one block
+/// each, the same on one thread and on two.
+#[test]
+fn drop_sweeps_pair_by_blocks() {
+    let d = tmpdir("paired-drop");
+    let text = std::fs::read_to_string(repo("configs/drop_corner.toml")).unwrap()
+        + "\n[sweep]\n\"planes.floor.restitution\" = [0.5, 0.8]\n";
+    let scene = d.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let run = |threads: &str| -> serde_json::Value {
+        let o = bin()
+            .arg("run")
+            .arg(&scene)
+            .args([
+                "--samples",
+                "8192",
+                "--threads",
+                threads,
+                "--format",
+                "json",
+            ])
+            .arg("--out")
+            .arg(d.join(format!("out-{threads}")))
+            .output()
+            .unwrap();
+        assert_succeeded(&o);
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()["points"][1]["summary"]
+            ["paired_points"]
+            .clone()
+    };
+    let (one, two) = (run("1"), run("2"));
+    assert_eq!(one, two);
+    assert_eq!(one["method"], "clusters");
+    // Two batches of 4096 samples, 22 blocks of 192 each.
+    assert_eq!(one["degrees_of_freedom"], 2 * 22 - 1);
+    let er = &one["laws"]["newton"]["energy_ratio"];
+    assert!(er["ci95"].as_f64().unwrap() < er["unpaired_ci95"].as_f64().unwrap());
+}
+
+/// The clusters partition the samples: summed over clusters, every
+/// estimate's two sums are the run's own (counts exactly, sums to
+/// rounding), for a contact scene with friction and for a drop.
+#[test]
+fn cluster_sums_add_up_to_the_run() {
+    use impactmc::engine::{run, RunOptions};
+    use impactmc::stats::clusters::{walk_law, Key};
+    for (name, samples) in [("corner3_friction", 30_000u64), ("drop_corner", 5000)] {
+        let scene = impactmc::config::load_scene(
+            &repo(&format!("configs/{name}.toml")),
+            &impactmc::config::Overrides {
+                samples: Some(samples),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let r = run(
+            &scene,
+            &RunOptions {
+                threads: 2,
+                clusters: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let c = r.clusters.as_ref().expect("clusters recorded");
+        assert!(c.clusters() > 20, "{name}: {} clusters", c.clusters());
+        for (l, law) in r.acc.laws.iter().enumerate() {
+            let mut whole = Vec::new();
+            walk_law(law, &mut |k, a, b| whole.push((k, a, b)));
+            assert_eq!(whole.len(), c.keys.len());
+            for (k, a, b) in whole {
+                let col = c.column(l, k).unwrap();
+                let (sa, sb) = col
+                    .iter()
+                    .fold((0.0, 0.0), |(x, y), &(a, b)| (x + a, y + b));
+                // B is a count, except a restitution's Σ|v_n⁻|.
+                if matches!(k, Key::PlaneStat("restitution", _)) {
+                    assert!((sb - b).abs() <= 1e-12 * b, "{name} {k:?}: B {sb} vs {b}");
+                } else {
+                    assert_eq!(sb, b, "{name} {k:?}: B");
+                }
+                assert!(
+                    (sa - a).abs() <= 1e-9 * a.abs().max(b),
+                    "{name} {k:?}: A {sa} vs {a}"
+                );
+            }
+        }
+    }
+}

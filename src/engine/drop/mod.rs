@@ -25,6 +25,7 @@ use crate::output::samples::SampleRows;
 use crate::physics::{Law, Motion, Rotation};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::{block_stats, record_friction, Before, Scratch};
+use crate::stats::clusters::Recorder;
 use crate::stats::drops::Ending;
 
 mod ctx;
@@ -65,15 +66,28 @@ impl DropCtx<'_> {
     /// Samples `first..first + count` under every law, into `acc` (and one
     /// row per impact into `rows`).
     pub fn run(&self, first: u64, count: u64, acc: &mut RunAcc, rows: Option<&mut SampleRows>) {
+        self.run_recorded(first, count, acc, rows, None);
+    }
+
+    /// [`Self::run`], cutting a cluster ([`crate::stats::clusters`]) after
+    /// each block if `clusters` records them.
+    pub(crate) fn run_recorded(
+        &self,
+        first: u64,
+        count: u64,
+        acc: &mut RunAcc,
+        rows: Option<&mut SampleRows>,
+        clusters: Option<&mut Recorder>,
+    ) {
         match self.scene.planes().len() {
-            1 => self.run_n::<1>(first, count, acc, rows),
-            2 => self.run_n::<2>(first, count, acc, rows),
-            3 => self.run_n::<3>(first, count, acc, rows),
-            4 => self.run_n::<4>(first, count, acc, rows),
-            5 => self.run_n::<5>(first, count, acc, rows),
+            1 => self.run_n::<1>(first, count, acc, rows, clusters),
+            2 => self.run_n::<2>(first, count, acc, rows, clusters),
+            3 => self.run_n::<3>(first, count, acc, rows, clusters),
+            4 => self.run_n::<4>(first, count, acc, rows, clusters),
+            5 => self.run_n::<5>(first, count, acc, rows, clusters),
             n => {
                 debug_assert_eq!(n, crate::config::MAX_DROP_PLANES);
-                self.run_n::<6>(first, count, acc, rows)
+                self.run_n::<6>(first, count, acc, rows, clusters)
             }
         }
     }
@@ -81,13 +95,14 @@ impl DropCtx<'_> {
     /// [`Self::run`] for `N` planes: per chunk of samples, every walk
     /// (sample and law), then per block of the chunk the walks replayed in
     /// sample order and the first impacts' statistics by the block
-    /// recorder of contact scenes.
+    /// recorder of contact scenes (and the clusters' cuts, if recorded).
     fn run_n<const N: usize>(
         &self,
         first: u64,
         count: u64,
         acc: &mut RunAcc,
         mut rows: Option<&mut SampleRows>,
+        mut clusters: Option<&mut Recorder>,
     ) {
         let laws = self.scene.laws();
         let body = self.scene.body();
@@ -138,6 +153,9 @@ impl DropCtx<'_> {
                     if let Some(fr) = la.friction.as_mut() {
                         record_friction(out, n, fr);
                     }
+                }
+                if let Some(r) = clusters.as_deref_mut() {
+                    r.block_done(acc);
                 }
             }
             lo += chunk as u64;
