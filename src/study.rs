@@ -22,7 +22,10 @@ use crate::output::paired::Spread;
 use crate::output::parquet::{Compression, SamplesWriter, WriteOptions};
 use crate::output::plots::run_plots;
 use crate::output::samples::{SampleRows, Selection};
-use crate::output::shard::{check, info_of, merge_point, read_nodes, state_frames, MergeError};
+use crate::output::shard::{
+    check, cluster_frame, info_of, merge_clusters, merge_point, read_clusters, read_nodes,
+    state_frames, BatchClusters, MergeError,
+};
 use crate::output::summary::Summary;
 use crate::output::{
     drop_frames, histograms_frame, summary_frame, write_parquet, DropAccs, OutputError,
@@ -58,8 +61,8 @@ impl PointRun {
 
 /// A sweep's paired differences: every point but the reference against
 /// it ([`Summary::paired_with`]), by replicate under RQMC and by cluster
-/// of samples under MC. Nothing without a sweep, or where the points lack
-/// what pairs them (a shard's run).
+/// of samples under MC (a shard's over its own batches). Nothing without
+/// a sweep, or where the points lack what pairs them (a partial merge).
 fn pair_points(runs: &mut [PointRun], reference: usize) {
     if runs.len() < 2 || reference >= runs.len() {
         return;
@@ -524,6 +527,7 @@ pub fn merge_study(
         .into());
     }
     let mut nodes: Vec<Vec<_>> = points.iter().map(|_| Vec::new()).collect();
+    let mut clusters: Vec<BatchClusters> = points.iter().map(|_| BatchClusters::new()).collect();
     let mut wall = vec![0.0; points.len()];
     let mut cpu: Vec<Option<f64>> = vec![Some(0.0); points.len()];
     let shapes: Vec<Shape> = points.iter().map(|p| Shape::of(&p.scene)).collect();
@@ -535,6 +539,9 @@ pub fn merge_study(
             return Err(RunError::Cancelled.into());
         }
         let per_point = read_nodes(&s.dir, &shapes)?;
+        for (k, c) in read_clusters(&s.dir, points.len())?.into_iter().enumerate() {
+            clusters[k].extend(c);
+        }
         if let Some(w) = watch {
             w.advance(1);
         }
@@ -549,8 +556,8 @@ pub fn merge_study(
     }
     let threads = first.info.threads;
     let mut runs = Vec::with_capacity(points.len());
-    for (k, (p, n)) in points.into_iter().zip(nodes).enumerate() {
-        let result = merge_point(
+    for (k, ((p, n), c)) in points.into_iter().zip(nodes).zip(clusters).enumerate() {
+        let mut result = merge_point(
             n,
             first.info.batches,
             Shape::of(&p.scene),
@@ -559,6 +566,17 @@ pub fn merge_study(
             cpu[k],
             threads,
         );
+        result.clusters = merge_clusters(
+            c,
+            p.scene.samples(),
+            p.scene.batch_size(),
+            first.info.batches,
+            &result.acc.laws,
+        )
+        .map_err(|message| MergeError::State {
+            path: "state_clusters.parquet".into(),
+            message,
+        })?;
         runs.push(PointRun::new(p.values, p.scene, result));
     }
     pair_points(&mut runs, reference);
@@ -656,7 +674,21 @@ impl Study {
             path: dir.join(names[0]).display().to_string(),
             source,
         })?;
-        for (name, mut df) in names.into_iter().zip(frames) {
+        let sums: Vec<_> = self
+            .points
+            .iter()
+            .map(|p| p.result.clusters.as_ref())
+            .collect();
+        let clusters = "state_clusters.parquet";
+        let cluster_df = cluster_frame(&sums).map_err(|source| OutputError::Parquet {
+            path: dir.join(clusters).display().to_string(),
+            source,
+        })?;
+        for (name, mut df) in names
+            .into_iter()
+            .zip(frames)
+            .chain([(clusters, cluster_df)])
+        {
             write_parquet(
                 staging,
                 name,
@@ -665,7 +697,7 @@ impl Study {
             )?;
         }
         let mut files = vec!["shard.json".to_string(), "scene.toml".into()];
-        files.extend(names.iter().map(|s| s.to_string()));
+        files.extend(names.iter().chain([&clusters]).map(|s| s.to_string()));
         Ok(files)
     }
 

@@ -115,7 +115,7 @@ pub struct RunOptions {
     pub watch: Option<Arc<Watch>>,
     /// Record cluster sums ([`crate::stats::clusters`]) for paired
     /// differences with another run of the same samples (an MC sweep's
-    /// points). Ignored by a shard.
+    /// points); a shard records its own batches' for the merge.
     pub clusters: bool,
 }
 
@@ -473,7 +473,8 @@ pub fn run_with_samples(
     if let Some(mask) = &opts.sample_floats {
         rows.fill_only(mask);
     }
-    let log = (opts.clusters && opts.shard.is_none())
+    let log = opts
+        .clusters
         .then(|| ClusterLog::new(crate::stats::clusters::blocks_per_cluster(scene)));
     let nodes = pool
         .install(|| {

@@ -19,7 +19,12 @@
 //!   deviations from the mean); empty ones are omitted;
 //! - `state_histograms.parquet`: `point, level, index, key, sign i32,
 //!   bin u32, count u64`: non-zero histogram counts (sign 1: positive
-//!   values in log-linear bin `bin`; −1 negative; 0 exact zeros).
+//!   values in log-linear bin `bin`; −1 negative; 0 exact zeros);
+//! - `state_clusters.parquet`: `point u32, batch u64, cluster u32, law
+//!   u32, estimate u32, a f64, b f64`: an MC sweep's cluster sums
+//!   ([`crate::stats::clusters`]), cluster `cluster` of batch `batch`, the
+//!   sums `A_c`, `B_c` of the law's estimate in `walk_law` order (empty
+//!   when the run records none).
 //!
 //! Keys are the paths of [`RunAcc::visit`] (`law0.groups.3.energy_ratio`).
 
@@ -29,14 +34,15 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::stats::accumulators::{RunAcc, Shape};
+use crate::stats::accumulators::{LawAcc, RunAcc, Shape};
+use crate::stats::clusters::ClusterSums;
 use crate::stats::tree::{reduce_tree, Node, Shard};
 use crate::stats::Moments;
 use crate::stats::RunResult;
 use crate::stats::Slot;
 
 /// Version of the state files' layout.
-pub const STATE_VERSION: u32 = 3;
+pub const STATE_VERSION: u32 = 4;
 
 /// `shard.json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -166,6 +172,153 @@ pub fn state_frames(points: &[&[(Node, RunAcc)]]) -> PolarsResult<[DataFrame; 3]
         DataFrame::new(lens[1], moments)?,
         DataFrame::new(lens[2], hists)?,
     ])
+}
+
+/// The cluster table of the given points' cluster sums (`state_clusters.parquet`).
+pub fn cluster_frame(points: &[Option<&ClusterSums>]) -> PolarsResult<DataFrame> {
+    let (mut point, mut batch, mut cluster, mut law, mut estimate, mut a, mut b) = (
+        Vec::<u32>::new(),
+        Vec::<u64>::new(),
+        Vec::<u32>::new(),
+        Vec::<u32>::new(),
+        Vec::<u32>::new(),
+        Vec::<f64>::new(),
+        Vec::<f64>::new(),
+    );
+    for (p, sums) in points.iter().enumerate() {
+        let Some(sums) = sums else { continue };
+        let keys = sums.keys.len();
+        for (bt, s) in sums.per_batch() {
+            for (k, pair) in s.chunks_exact(2).enumerate() {
+                let per_cluster = sums.laws * keys;
+                point.push(p as u32);
+                batch.push(bt);
+                cluster.push((k / per_cluster) as u32);
+                law.push(((k % per_cluster) / keys) as u32);
+                estimate.push((k % keys) as u32);
+                a.push(pair[0]);
+                b.push(pair[1]);
+            }
+        }
+    }
+    let n = point.len();
+    DataFrame::new(
+        n,
+        vec![
+            Column::new("point".into(), point),
+            Column::new("batch".into(), batch),
+            Column::new("cluster".into(), cluster),
+            Column::new("law".into(), law),
+            Column::new("estimate".into(), estimate),
+            Column::new("a".into(), a),
+            Column::new("b".into(), b),
+        ],
+    )
+}
+
+/// A point's cluster sums, per batch: the rows `(cluster, law, estimate,
+/// a, b)`.
+pub type BatchClusters = BTreeMap<u64, Vec<(u32, u32, u32, f64, f64)>>;
+
+/// One shard's cluster sums of every point.
+pub type ShardClusters = Vec<BatchClusters>;
+
+/// Reads a shard's `state_clusters.parquet`.
+pub fn read_clusters(dir: &Path, points: usize) -> Result<ShardClusters, MergeError> {
+    let f = "state_clusters.parquet";
+    let bad = |message: String| MergeError::State {
+        path: dir.join(f).display().to_string(),
+        message,
+    };
+    let df = read_frame(&dir.join(f))?;
+    let col = |name: &str| df.column(name).map_err(|e| bad(e.to_string()));
+    let u32s = |name: &str| -> Result<Vec<u32>, MergeError> {
+        Ok(col(name)?
+            .u32()
+            .map_err(|e| bad(e.to_string()))?
+            .into_no_null_iter()
+            .collect())
+    };
+    let f64s = |name: &str| -> Result<Vec<f64>, MergeError> {
+        Ok(col(name)?
+            .f64()
+            .map_err(|e| bad(e.to_string()))?
+            .into_no_null_iter()
+            .collect())
+    };
+    let batch: Vec<u64> = col("batch")?
+        .u64()
+        .map_err(|e| bad(e.to_string()))?
+        .into_no_null_iter()
+        .collect();
+    let (point, cluster, law, estimate, a, b) = (
+        u32s("point")?,
+        u32s("cluster")?,
+        u32s("law")?,
+        u32s("estimate")?,
+        f64s("a")?,
+        f64s("b")?,
+    );
+    let mut out: ShardClusters = vec![BTreeMap::new(); points];
+    for r in 0..point.len() {
+        let p = point[r] as usize;
+        let per_point = out
+            .get_mut(p)
+            .ok_or_else(|| bad(format!("point {p} out of range (the scene has {points})")))?;
+        per_point
+            .entry(batch[r])
+            .or_default()
+            .push((cluster[r], law[r], estimate[r], a[r], b[r]));
+    }
+    Ok(out)
+}
+
+/// A point's cluster sums from every shard's rows: None where the shards
+/// recorded none, or some batch of `0..batches` has none (a partial merge).
+pub fn merge_clusters(
+    rows: BatchClusters,
+    samples: u64,
+    batch_size: u64,
+    batches: u64,
+    laws: &[LawAcc],
+) -> Result<Option<ClusterSums>, String> {
+    if rows.len() as u64 != batches {
+        return Ok(None);
+    }
+    let empty = ClusterSums::from_batches(samples, batch_size, laws, Vec::new());
+    let (nl, nk) = (empty.laws, empty.keys.len());
+    let mut per_batch = Vec::with_capacity(rows.len());
+    for (batch, r) in rows {
+        let clusters = r.len() / (nl * nk).max(1);
+        if clusters * nl * nk != r.len() {
+            return Err(format!(
+                "batch {batch} has {} sums, not a whole number of clusters",
+                r.len()
+            ));
+        }
+        let mut sums = vec![0.0; 2 * r.len()];
+        let mut seen = vec![false; r.len()];
+        for (c, l, e, a, b) in r {
+            let (c, l, e) = (c as usize, l as usize, e as usize);
+            if c >= clusters || l >= nl || e >= nk {
+                return Err(format!(
+                    "batch {batch}: cluster {c}, law {l}, estimate {e} out of range"
+                ));
+            }
+            let at = (c * nl + l) * nk + e;
+            (sums[2 * at], sums[2 * at + 1]) = (a, b);
+            seen[at] = true;
+        }
+        if seen.contains(&false) {
+            return Err(format!(
+                "batch {batch} lists a cluster sum twice or not at all"
+            ));
+        }
+        per_batch.push((batch, sums));
+    }
+    Ok(Some(ClusterSums::from_batches(
+        samples, batch_size, laws, per_batch,
+    )))
 }
 
 /// Why shards could not be merged. Every message names the shard folder or

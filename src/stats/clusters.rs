@@ -137,14 +137,57 @@ pub struct ClusterSums {
     /// where both agree (the same samples in the same clusters).
     pub samples: u64,
     pub batch_size: u64,
+    /// The batches recorded, in order, each with its number of clusters
+    /// (a shard's run records its own batches; a merge joins them).
+    pub batches: Vec<(u64, usize)>,
     /// Per cluster, per law, per estimate: `A_c`, then `B_c`.
     pub sums: Vec<f64>,
 }
 
 impl ClusterSums {
+    /// The sums of `batches` (each batch's index and its clusters' sums,
+    /// in any order), put in batch order; `laws` give the estimates' keys.
+    pub fn from_batches(
+        samples: u64,
+        batch_size: u64,
+        laws: &[LawAcc],
+        mut batches: Vec<(u64, Vec<f64>)>,
+    ) -> Self {
+        batches.sort_unstable_by_key(|b| b.0);
+        let mut keys = Vec::new();
+        if let Some(law) = laws.first() {
+            walk_law(law, &mut |k, _, _| keys.push(k));
+        }
+        let width = (laws.len() * keys.len() * 2).max(1);
+        Self {
+            keys,
+            laws: laws.len(),
+            samples,
+            batch_size,
+            batches: batches.iter().map(|b| (b.0, b.1.len() / width)).collect(),
+            sums: batches.into_iter().flat_map(|b| b.1).collect(),
+        }
+    }
+
     /// Sums per cluster.
-    fn width(&self) -> usize {
+    pub fn width(&self) -> usize {
         self.laws * self.keys.len() * 2
+    }
+
+    /// Each recorded batch's index and its clusters' sums, in batch order.
+    pub fn per_batch(&self) -> impl Iterator<Item = (u64, &[f64])> {
+        let w = self.width();
+        let mut at = 0;
+        self.batches.iter().map(move |&(b, n)| {
+            let s = &self.sums[at..at + n * w];
+            at += n * w;
+            (b, s)
+        })
+    }
+
+    /// Whether the batches recorded are all `0..batches`, in order.
+    pub fn covers(&self, batches: u64) -> bool {
+        self.batches.len() as u64 == batches && self.batches.iter().zip(0..).all(|(b, i)| b.0 == i)
     }
 
     /// The clusters recorded.
@@ -173,7 +216,9 @@ impl ClusterSums {
     /// runs' clusters are not the same samples, an estimate is undefined
     /// in either, or there are fewer than two clusters.
     pub fn paired_ci95(&self, reference: &ClusterSums, law: usize, key: Key) -> f64 {
-        if (self.samples, self.batch_size) != (reference.samples, reference.batch_size) {
+        if (self.samples, self.batch_size, &self.batches)
+            != (reference.samples, reference.batch_size, &reference.batches)
+        {
             return f64::NAN;
         }
         let (Some(a), Some(b)) = (self.column(law, key), reference.column(law, key)) else {
@@ -263,22 +308,11 @@ impl ClusterLog {
 
     /// The clusters in sample order.
     pub(crate) fn finish(self, scene: &Scene, laws: &[LawAcc]) -> ClusterSums {
-        let mut batches = self
+        let batches = self
             .batches
             .into_inner()
             .expect("a thread recording clusters panicked");
-        batches.sort_unstable_by_key(|b| b.0);
-        let mut keys = Vec::new();
-        if let Some(law) = laws.first() {
-            walk_law(law, &mut |k, _, _| keys.push(k));
-        }
-        ClusterSums {
-            keys,
-            laws: laws.len(),
-            samples: scene.samples(),
-            batch_size: scene.batch_size(),
-            sums: batches.into_iter().flat_map(|b| b.1).collect(),
-        }
+        ClusterSums::from_batches(scene.samples(), scene.batch_size(), laws, batches)
     }
 }
 

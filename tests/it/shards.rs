@@ -187,6 +187,13 @@ fn more_shards_than_batches_and_a_sweep_merge_exactly() {
     let single = support::succeeded(run(&scene, &d.join("single"), &[]));
     let want = summary_without_timing(&single.stdout);
     assert_eq!(want["points"].as_array().unwrap().len(), 3);
+    // The MC sweep's paired differences are merged too (from the shards'
+    // cluster sums).
+    let paired = &want["points"][1]["summary"]["paired_points"];
+    assert!(
+        paired["laws"]["newton"]["energy_ratio"]["ci95"].as_f64() > Some(0.0),
+        "{paired}"
+    );
     for n in [3u64, 64] {
         let sd = d.join(format!("n{n}"));
         std::fs::create_dir_all(&sd).unwrap();
