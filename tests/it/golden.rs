@@ -67,7 +67,12 @@ fn copies_match_the_maintained_golden_files() {
         return;
     }
     let dir = dir.unwrap();
-    for name in ["cases.json", "friction_cases.json", "floor_stats.json"] {
+    for name in [
+        "cases.json",
+        "friction_cases.json",
+        "friction_threshold_cases.json",
+        "floor_stats.json",
+    ] {
         let ours = support::data_file(&format!("golden/{name}"));
         let theirs = std::fs::read_to_string(dir.join(name))
             .unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()));

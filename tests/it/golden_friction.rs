@@ -1,4 +1,5 @@
-//! Every entry of `tests/data/golden/friction_cases.json` (friction.md),
+//! Every entry of `tests/data/golden/friction_cases.json` and
+//! `friction_threshold_cases.json` (friction.md),
 //! compared by the rules of `tests/data/golden/README.md`, "Friction": the
 //! expected values come from 40-digit mpmath (`mp`), an independent f64
 //! DOP853 integration of Darboux–Keller (`ode`) or `cases.json` (`copy`),
@@ -32,9 +33,13 @@ struct File {
     cases: Vec<Entry>,
 }
 
+fn load_file(name: &str) -> File {
+    let text = support::data_file(&format!("golden/{name}"));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name} deserialises: {e}"))
+}
+
 fn load() -> File {
-    let text = support::data_file("golden/friction_cases.json");
-    serde_json::from_str(&text).expect("friction_cases.json deserialises")
+    load_file("friction_cases.json")
 }
 
 /// The library's answer: the parsed and validated case, solved, or the
@@ -48,8 +53,19 @@ fn solve(input: &serde_json::Value) -> Result<CaseOutput, String> {
 
 #[test]
 fn friction_golden_cases() {
-    let file = load();
-    assert_eq!(file.cases.len(), 297, "entry count of friction_cases.json");
+    check_file("friction_cases.json", 297);
+}
+
+/// Rods with μ within 1e-5 and 1e-6 of their stick threshold, where the
+/// slip falls to zero only asymptotically under `stronge`.
+#[test]
+fn friction_threshold_golden_cases() {
+    check_file("friction_threshold_cases.json", 112);
+}
+
+fn check_file(name: &str, entries: usize) {
+    let file = load_file(name);
+    assert_eq!(file.cases.len(), entries, "entry count of {name}");
     let mut r = Report::default();
     for e in &file.cases {
         let id = e.id.as_str();
@@ -102,7 +118,7 @@ fn friction_golden_cases() {
             );
         }
     }
-    finish(&r, "friction golden", file.cases.len());
+    finish(&r, name, file.cases.len());
 }
 
 /// The validation entries through the binary: exit status 2 and every

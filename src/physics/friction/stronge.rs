@@ -102,76 +102,183 @@ impl Path {
         Mode::Ray([s[0] / m, s[1] / m])
     }
 
-    /// One Dormand–Prince 5(4) step: the fifth-order result and the
-    /// difference to the embedded fourth-order one.
+    /// One Dormand–Prince 5(4) step in p.
     fn step(&self, mode: Mode, p: f64, y: [f64; 3], h: f64) -> ([f64; 3], [f64; 3]) {
-        const A: [[f64; 6]; 6] = [
-            [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-            [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
-            [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
-            [
-                19372.0 / 6561.0,
-                -25360.0 / 2187.0,
-                64448.0 / 6561.0,
-                -212.0 / 729.0,
-                0.0,
-                0.0,
-            ],
-            [
-                9017.0 / 3168.0,
-                -355.0 / 33.0,
-                46732.0 / 5247.0,
-                49.0 / 176.0,
-                -5103.0 / 18656.0,
-                0.0,
-            ],
-            [
-                35.0 / 384.0,
-                0.0,
-                500.0 / 1113.0,
-                125.0 / 192.0,
-                -2187.0 / 6784.0,
-                11.0 / 84.0,
-            ],
-        ];
-        const CN: [f64; 6] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
-        const B4: [f64; 7] = [
-            5179.0 / 57600.0,
-            0.0,
-            7571.0 / 16695.0,
-            393.0 / 640.0,
-            -92097.0 / 339200.0,
-            187.0 / 2100.0,
-            1.0 / 40.0,
-        ];
-        let mut k = [[0.0; 3]; 7];
-        k[0] = self.rhs(mode, p, y);
-        for s in 0..6 {
-            let mut ys = y;
-            for (i, yi) in ys.iter_mut().enumerate() {
-                for (j, kj) in k.iter().enumerate().take(s + 1) {
-                    *yi += h * A[s][j] * kj[i];
-                }
-            }
-            k[s + 1] = self.rhs(mode, p + CN[s] * h, ys);
-        }
-        // The seventh stage is at the fifth-order result (FSAL).
-        let mut y5 = y;
-        for (i, yi) in y5.iter_mut().enumerate() {
-            for j in 0..6 {
-                *yi += h * A[5][j] * k[j][i];
-            }
-        }
-        let mut err = [0.0; 3];
-        for (i, e) in err.iter_mut().enumerate() {
-            let mut y4 = y[i];
-            for (j, kj) in k.iter().enumerate() {
-                y4 += h * B4[j] * kj[i];
-            }
-            *e = y5[i] - y4;
-        }
-        (y5, err)
+        dopri5(&|q, z| self.rhs(mode, q, z), p, y, h)
     }
+
+    /// The approach to zero slip, integrated in `τ = ln(m₀/|c_t|)` from a
+    /// sliding state `(p, y)` whose slip `|c_t| = m₀` falls: with `c_t = m s`
+    /// and `v(s) = w_t − μ W_tt s` (dc_t/dp while sliding, a function of the
+    /// direction alone) and `a = −s·v > 0`,
+    /// `dp/dτ = m/a`, `ds/dτ = (v + a s)/a`, `dF/dτ = −μ s m/a` and
+    /// `d(work)/dτ = c_n m/a`, `m = m₀ e^{−τ}`. The direction's equation does
+    /// not involve m, so the path reaches `c_t = 0` at a finite p that the
+    /// integrals reach to rounding after [`APPROACH_FOLDS`] e-foldings:
+    /// nothing is stopped early. `None` if the slip stops falling on the
+    /// way (`a` no longer positive) or the steps fail.
+    fn approach(
+        &self,
+        p: f64,
+        y: [f64; 3],
+        c: [f64; 2],
+        p_scale: f64,
+        vs: f64,
+    ) -> Option<(f64, [f64; 3])> {
+        let m0 = c[0].hypot(c[1]);
+        let rate = |s: [f64; 2]| {
+            let v = [
+                self.wt[0] - self.mu * (self.wtt[0][0] * s[0] + self.wtt[0][1] * s[1]),
+                self.wt[1] - self.mu * (self.wtt[1][0] * s[0] + self.wtt[1][1] * s[1]),
+            ];
+            (v, -(s[0] * v[0] + s[1] * v[1]))
+        };
+        let floor = 1e-9 * self.wt[0].hypot(self.wt[1]).max(self.mu * vs / p_scale);
+        let rhs = |tau: f64, z: [f64; 6]| -> [f64; 6] {
+            let n = z[0].hypot(z[1]);
+            let s = [z[0] / n, z[1] / n];
+            let (v, a) = rate(s);
+            let a = a.max(floor);
+            let dp = m0 * (-tau).exp() / a;
+            [
+                (v[0] + a * s[0]) / a,
+                (v[1] + a * s[1]) / a,
+                dp,
+                -self.mu * s[0] * dp,
+                -self.mu * s[1] * dp,
+                self.cn(z[2], [z[3], z[4]]) * dp,
+            ]
+        };
+        let mut z = [c[0] / m0, c[1] / m0, p, y[0], y[1], y[2]];
+        let a0 = rate([z[0], z[1]]).1;
+        if !(a0 > 0.0) {
+            return None;
+        }
+        // The impulse the approach takes at its first rate, if larger than
+        // the impact's: the errors are relative to it.
+        let p_scale = p_scale.max(m0 / a0);
+        let (mut tau, mut h) = (0.0f64, 0.25f64);
+        let tol = 1e-14;
+        for _ in 0..2_000 {
+            if tau >= APPROACH_FOLDS {
+                return Some((z[2], [z[3], z[4], z[5]]));
+            }
+            h = h.min(APPROACH_FOLDS - tau);
+            let (z1, err) = dopri5(&rhs, tau, z, h);
+            // Mixed absolute and relative errors: the direction's in
+            // slip speed, p's and F's against the impulse scale, the
+            // work's against its own.
+            let e = (err[0].hypot(err[1]) * m0 * (-tau).exp() / vs)
+                .max(err[2].abs() / (p_scale + z[2].abs()))
+                .max(err[3].hypot(err[4]) / (p_scale + z[3].hypot(z[4])))
+                .max(err[5].abs() / (p_scale * vs + z[5].abs()));
+            if e > tol {
+                h *= (0.9 * (tol / e).powf(0.2)).max(0.2);
+                // Steps that vanish: the slip turns to where it no longer
+                // falls (a minimum of |c_t| above zero).
+                if h < 1e-9 {
+                    return None;
+                }
+                continue;
+            }
+            let n = z1[0].hypot(z1[1]);
+            if !(rate([z1[0] / n, z1[1] / n]).1 > floor) {
+                return None;
+            }
+            tau += h;
+            z = z1;
+            h *= if e > 0.0 {
+                (0.9 * (tol / e).powf(0.2)).min(5.0)
+            } else {
+                5.0
+            };
+        }
+        None
+    }
+}
+
+/// E-foldings of the slip the approach integrates: `e^{−40} ≈ 4·10⁻¹⁸` of
+/// where it starts, itself at most [`APPROACH_FROM`] of the velocity scale.
+const APPROACH_FOLDS: f64 = 40.0;
+
+/// The slip, as a fraction of the velocity scale, below which a falling
+/// slip is followed to zero by [`Path::approach`].
+const APPROACH_FROM: f64 = 1e-3;
+
+/// One Dormand–Prince 5(4) step of `dy/dt = f(t, y)`: the fifth-order
+/// result and the difference to the embedded fourth-order one.
+fn dopri5<const N: usize>(
+    f: &dyn Fn(f64, [f64; N]) -> [f64; N],
+    t: f64,
+    y: [f64; N],
+    h: f64,
+) -> ([f64; N], [f64; N]) {
+    const A: [[f64; 6]; 6] = [
+        [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+        [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+        [
+            19372.0 / 6561.0,
+            -25360.0 / 2187.0,
+            64448.0 / 6561.0,
+            -212.0 / 729.0,
+            0.0,
+            0.0,
+        ],
+        [
+            9017.0 / 3168.0,
+            -355.0 / 33.0,
+            46732.0 / 5247.0,
+            49.0 / 176.0,
+            -5103.0 / 18656.0,
+            0.0,
+        ],
+        [
+            35.0 / 384.0,
+            0.0,
+            500.0 / 1113.0,
+            125.0 / 192.0,
+            -2187.0 / 6784.0,
+            11.0 / 84.0,
+        ],
+    ];
+    const CN: [f64; 6] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+    const B4: [f64; 7] = [
+        5179.0 / 57600.0,
+        0.0,
+        7571.0 / 16695.0,
+        393.0 / 640.0,
+        -92097.0 / 339200.0,
+        187.0 / 2100.0,
+        1.0 / 40.0,
+    ];
+    let mut k = [[0.0; N]; 7];
+    k[0] = f(t, y);
+    for s in 0..6 {
+        let mut ys = y;
+        for (i, yi) in ys.iter_mut().enumerate() {
+            for (j, kj) in k.iter().enumerate().take(s + 1) {
+                *yi += h * A[s][j] * kj[i];
+            }
+        }
+        k[s + 1] = f(t + CN[s] * h, ys);
+    }
+    // The seventh stage is at the fifth-order result (FSAL).
+    let mut y5 = y;
+    for (i, yi) in y5.iter_mut().enumerate() {
+        for j in 0..6 {
+            *yi += h * A[5][j] * k[j][i];
+        }
+    }
+    let mut err = [0.0; N];
+    for (i, e) in err.iter_mut().enumerate() {
+        let mut y4 = y[i];
+        for (j, kj) in k.iter().enumerate() {
+            y4 += h * B4[j] * kj[i];
+        }
+        *e = y5[i] - y4;
+    }
+    (y5, err)
 }
 
 /// The rest of a Darboux–Keller path from `(p, y)` with `dF/dp = g` fixed:
@@ -251,7 +358,9 @@ fn linear_end(
 /// `∫_{p_c} c_n dp = k² E_c`). Slip is integrated by Dormand–Prince 5(4)
 /// at a local error of 1e-13 of the impulse scale per step, each step
 /// aimed at where the slip would stop and never carried through it, the
-/// events of the step located by regula falsi; once the slip has stopped
+/// events of the step located by regula falsi. A falling slip below
+/// [`APPROACH_FROM`] of the velocity scale is followed to zero in
+/// `ln|c_t|` ([`Path::approach`]), unless the phase ends first; once the slip has stopped
 /// (sticking, or resumed along its one ray) the rest of the path is linear
 /// in p and finished in closed form.
 pub fn stronge(ct: &Contacts) -> Solved {
@@ -295,6 +404,8 @@ pub fn stronge(ct: &Contacts) -> Solved {
     let mut end_work: Option<f64> = None;
     let mut ended = false;
     let (mut smallest, mut stalled) = (f64::INFINITY, 0);
+    // The phase (compression or restitution) of the last approach tried.
+    let mut approached: Option<bool> = None;
     for _ in 0..2_000_000 {
         let dir = match mode {
             Mode::Slide => None,
@@ -315,6 +426,15 @@ pub fn stronge(ct: &Contacts) -> Solved {
             }
             break;
         }
+        // The event of this phase, as a function that turns ≥ 0.
+        let event = |q: f64, yq: [f64; 3]| -> f64 {
+            let cn = path.cn(q, [yq[0], yq[1]]);
+            match end_work {
+                None => cn / vs,
+                // c_n turning negative again also ends the impact.
+                Some(target) => ((yq[2] - target) / (p_scale * vs)).max(-cn / vs),
+            }
+        };
         let c = path.ct(p, [y[0], y[1]]);
         let m = (c[0] * c[0] + c[1] * c[1]).sqrt();
         // Slip has stopped. Aimed steps land on zero to rounding when the
@@ -328,6 +448,20 @@ pub fn stronge(ct: &Contacts) -> Solved {
         if m < 0.999 * smallest {
             smallest = m;
             stalled = 0;
+        }
+        // A small falling slip is followed to zero in ln|c_t| (once per
+        // phase: again only after compression ends), unless the phase's
+        // event comes first.
+        let phase = end_work.is_some();
+        if m <= APPROACH_FROM * vs && approached != Some(phase) {
+            approached = Some(phase);
+            if let Some((q, yq)) = path.approach(p, y, c, p_scale, vs) {
+                if event(q, yq) < 0.0 {
+                    (p, y) = (q, yq);
+                    mode = path.at_rest();
+                    continue;
+                }
+            }
         }
         if m <= 1e-12 * vs || (stalled >= 8 && m <= 1e-6 * vs) {
             mode = path.at_rest();
@@ -361,15 +495,6 @@ pub fn stronge(ct: &Contacts) -> Solved {
             h *= 0.5;
             continue;
         }
-        // The event of this phase, as a function that turns ≥ 0.
-        let event = |q: f64, yq: [f64; 3]| -> f64 {
-            let cn = path.cn(q, [yq[0], yq[1]]);
-            match end_work {
-                None => cn / vs,
-                // c_n turning negative again also ends the impact.
-                Some(target) => ((yq[2] - target) / (p_scale * vs)).max(-cn / vs),
-            }
-        };
         let e1 = event(p + h, y1);
         if e1 >= 0.0 {
             // The step length to the event by regula falsi (Illinois).
@@ -434,4 +559,155 @@ pub fn stronge(ct: &Contacts) -> Solved {
     out.unsolved = !ended;
     out.impulses[0] = n * p + t1 * y[0] + t2 * y[1];
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn path(wt: [f64; 2], wtt: [[f64; 2]; 2], mu: f64) -> Path {
+        Path {
+            cn0: -1.0,
+            ct0: [0.0, 0.0],
+            w_nn: 2.0,
+            wt,
+            wtt,
+            mu,
+        }
+    }
+
+    /// Planar slip keeps its direction, so `c_t` is linear in p and
+    /// reaches zero at `p + m/a` in closed form, `a` its rate of fall;
+    /// next to the stick threshold `a` is small.
+    #[test]
+    fn a_planar_approach_lands_where_the_line_does() {
+        // |W_tt⁻¹ w_t| = 0.6/0.8 = 0.75. Slip along −t1 falls at
+        // a = 0.8 μ − 0.6, slowly just above the threshold; along +t1 at
+        // 0.6 + 0.8 μ.
+        for (mu, sign) in [
+            (0.75 * (1.0 + 1e-6), -1.0),
+            (0.75 * (1.0 + 1e-3), -1.0),
+            (0.3, 1.0),
+            (0.75 * (1.0 - 1e-6), 1.0),
+        ] {
+            let pa = path([-0.6, 0.0], [[0.8, 0.0], [0.0, 1.1]], mu);
+            let (p, y) = (0.2, [0.05, 0.0, -0.1]);
+            let m = 1e-4;
+            let f = [y[0], y[1]];
+            let c0 = pa.ct(p, f);
+            let shift = [sign * m - c0[0], 0.0];
+            let pa = Path {
+                ct0: [pa.ct0[0] + shift[0], pa.ct0[1] + shift[1]],
+                ..pa
+            };
+            let c = pa.ct(p, f);
+            let s = [sign, 0.0];
+            let a = -(s[0] * (pa.wt[0] - mu * pa.wtt[0][0] * s[0]));
+            assert!(a > 0.0, "{mu} {sign}");
+            let (q, yq) = pa
+                .approach(p, y, c, 1.0, 1.0)
+                .unwrap_or_else(|| panic!("{mu} {sign}: refused"));
+            let want = p + m / a;
+            // To 1e-13 of the impulse scale (1) or of the value.
+            assert!(
+                (q - want).abs() <= 1e-13 * want.max(1.0),
+                "{mu}: {q} vs {want}"
+            );
+            let f_want = y[0] - sign * mu * m / a;
+            assert!(
+                (yq[0] - f_want).abs() <= 1e-13 * f_want.abs().max(1.0),
+                "{mu}: {} vs {f_want}",
+                yq[0]
+            );
+            // c_t at the end: within 1e-13 of the velocity scale (1), or
+            // the rounding of its terms' cancellation.
+            let ct = pa.ct(q, [yq[0], yq[1]]);
+            let terms = pa.wt[0].abs() * q + pa.wtt[0][0] * yq[0].abs() + pa.ct0[0].abs();
+            assert!(ct[0].hypot(ct[1]) <= 1e-13 * terms.max(1.0), "{mu}: {ct:?}");
+        }
+    }
+
+    /// The slip of a sliding path integrated in p by fixed RK4 steps
+    /// (independent of the approach): its smallest |c_t| over `span` and
+    /// the p where it is.
+    fn smallest_slip(pa: &Path, p: f64, f: [f64; 2], span: f64) -> (f64, f64) {
+        let n = 200_000;
+        let h = span / n as f64;
+        let df = |q: f64, f: [f64; 2]| {
+            let c = pa.ct(q, f);
+            let m = c[0].hypot(c[1]);
+            [-pa.mu * c[0] / m, -pa.mu * c[1] / m]
+        };
+        let (mut q, mut f) = (p, f);
+        let mut best = (pa.ct(q, f)[0].hypot(pa.ct(q, f)[1]), q);
+        for _ in 0..n {
+            let k1 = df(q, f);
+            let k2 = df(
+                q + h / 2.0,
+                [f[0] + h / 2.0 * k1[0], f[1] + h / 2.0 * k1[1]],
+            );
+            let k3 = df(
+                q + h / 2.0,
+                [f[0] + h / 2.0 * k2[0], f[1] + h / 2.0 * k2[1]],
+            );
+            let k4 = df(q + h, [f[0] + h * k3[0], f[1] + h * k3[1]]);
+            for i in 0..2 {
+                f[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            q += h;
+            let c = pa.ct(q, f);
+            let m = c[0].hypot(c[1]);
+            if m < best.0 {
+                best = (m, q);
+            }
+        }
+        best
+    }
+
+    /// Where the direction turns (W_tt not a multiple of the identity, w_t
+    /// off its axes), the approach ends where a path integrated in p
+    /// reaches zero slip, with `c_t` within 1e-13 of the velocity scale there; it refuses a slip
+    /// that turns and stops falling short of zero, as that path shows.
+    #[test]
+    fn a_turning_approach_ends_at_zero_slip() {
+        let wtt = [[0.9, 0.3], [0.3, 0.5]];
+        let (p, y) = (0.1, [0.0, 0.0, -0.05]);
+        let (mut landed, mut refused) = (0, 0);
+        // A w_t small against μ W_tt (the slip falls in every direction)
+        // and one that is not.
+        for (wt, c) in [
+            ([-0.05, 0.02], [-3e-4, 1e-4]),
+            ([-0.05, 0.02], [1e-5, -2e-4]),
+            ([-0.05, 0.02], [-1e-6, -1e-6]),
+            ([-0.5, 0.2], [1e-5, -2e-4]),
+            ([-0.5, 0.2], [-3e-4, 1e-4]),
+        ] {
+            let pa = Path {
+                ct0: [c[0] - 0.1 * wt[0], c[1] - 0.1 * wt[1]],
+                ..path(wt, wtt, 0.7)
+            };
+            let c = pa.ct(p, [y[0], y[1]]);
+            let m = c[0].hypot(c[1]);
+            // Beyond where the slip would stop at its first rate.
+            let (least, at) = smallest_slip(&pa, p, [y[0], y[1]], 20.0 * m);
+            let Some((q, yq)) = pa.approach(p, y, c, 1.0, 1.0) else {
+                // Refused: the slip turns and stops falling short of zero.
+                assert!(least > 1e-2 * m, "{c:?} refused, but it reaches {least:e}");
+                refused += 1;
+                continue;
+            };
+            assert!(least < 1e-3 * m, "{c:?}: the path in p keeps {least:e}");
+            assert!(
+                (q - at).abs() < 1e-3 * (at - p),
+                "{c:?}: zero at {q}, not {at}"
+            );
+            let ct = pa.ct(q, [yq[0], yq[1]]);
+            assert!(ct[0].hypot(ct[1]) <= 1e-13, "{c:?}: slip {ct:?} left");
+            landed += 1;
+        }
+        assert!(
+            landed >= 2 && refused >= 1,
+            "{landed} landed, {refused} refused"
+        );
+    }
 }
