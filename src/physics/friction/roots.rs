@@ -1,6 +1,9 @@
 //! Roots of a complex polynomial (Durand–Kerner), for the slide angle's
 //! quartic of the single-contact solve (friction.md §3).
 
+/// The largest degree [`poly_roots`] takes (the slide angle's quartic).
+pub(super) const MAX_DEGREE: usize = 4;
+
 /// A minimal complex number, for the slide angle's quartic.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct C(pub(super) f64, pub(super) f64);
@@ -40,10 +43,21 @@ impl C {
 /// and then wanders at the rounding floor (about the square root of the
 /// precision), where more iterations change nothing that the polish on F
 /// does not.
-pub(super) fn poly_roots(a: &[C]) -> Vec<C> {
+///
+/// At most degree [`MAX_DEGREE`], on the stack: the first `deg` entries of
+/// the array returned are the roots.
+pub(super) fn poly_roots(a: &[C]) -> [C; MAX_DEGREE] {
     let deg = a.len() - 1;
+    assert!(
+        (1..=MAX_DEGREE).contains(&deg),
+        "degree {deg} outside 1..={MAX_DEGREE}"
+    );
     let lead = a[deg];
-    let monic: Vec<C> = a.iter().map(|&x| x.div(lead)).collect();
+    let mut monic = [C(0.0, 0.0); MAX_DEGREE + 1];
+    for (m, &x) in monic.iter_mut().zip(a) {
+        *m = x.div(lead);
+    }
+    let monic = &monic[..=deg];
     let eval = |z: C| {
         monic
             .iter()
@@ -52,12 +66,11 @@ pub(super) fn poly_roots(a: &[C]) -> Vec<C> {
     };
     // Start on a circle of the roots' size (Cauchy's bound), off the axes.
     let radius = 1.0 + monic[..deg].iter().map(|c| c.abs()).fold(0.0, f64::max);
-    let mut z: Vec<C> = (0..deg)
-        .map(|k| {
-            let t = 0.4 + std::f64::consts::TAU * k as f64 / deg as f64;
-            C(radius.min(2.0) * t.cos(), radius.min(2.0) * t.sin())
-        })
-        .collect();
+    let mut z = [C(0.0, 0.0); MAX_DEGREE];
+    for (k, zk) in z.iter_mut().enumerate().take(deg) {
+        let t = 0.4 + std::f64::consts::TAU * k as f64 / deg as f64;
+        *zk = C(radius.min(2.0) * t.cos(), radius.min(2.0) * t.sin());
+    }
     let (mut least, mut stalled) = (f64::INFINITY, 0);
     for _ in 0..500 {
         let mut moved = 0f64;

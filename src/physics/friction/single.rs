@@ -3,7 +3,7 @@
 
 use glam::{DMat3, DVec3};
 
-use super::roots::{poly_roots, C};
+use super::roots::{poly_roots, C, MAX_DEGREE};
 use super::tangent_basis;
 
 /// Which case of the single-contact solve an impulse is.
@@ -206,22 +206,27 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
             }
         }
     }
-    let mut candidates = slide_angles(&f);
+    let (mut candidates, found) = slide_angles(&f);
+    let candidates = &mut candidates[..found];
     candidates.sort_by(f64::total_cmp);
-    let mut slides: Vec<(DVec3, f64)> = Vec::new();
-    for th in candidates {
+    // At most one slide per root, on the stack.
+    let mut all_slides = [(DVec3::ZERO, 0.0); MAX_DEGREE];
+    let mut kept = 0;
+    for &th in candidates.iter() {
         let Some(p) = slide_at(th) else {
             continue;
         };
-        if slides
+        if all_slides[..kept]
             .iter()
             .any(|(q, _)| (*q - p).length() <= 1e-9 * p.length())
         {
             continue;
         }
         let after = c + *w * p;
-        slides.push((p, 0.5 * p.dot(c + after)));
+        all_slides[kept] = (p, 0.5 * p.dot(c + after));
+        kept += 1;
     }
+    let slides = &all_slides[..kept];
     let count = slides.len() + stick_ok as usize;
     if stick_ok {
         return Single {
@@ -250,12 +255,11 @@ fn solve(c: DVec3, b: f64, w: &DMat3, n: DVec3, mu: f64, vscale: f64, shortcut: 
 /// Every root in [−π, π) of a trigonometric polynomial of degree at most 2:
 /// its Fourier coefficients from eight samples (exact for that degree), the
 /// unit-circle roots of `z² F` as a polynomial in `z = e^{iθ}`, each
-/// polished by Newton's method on F itself.
-fn slide_angles(f: &dyn Fn(f64) -> f64) -> Vec<f64> {
+/// polished by Newton's method on F itself. On the stack: the first `n`
+/// entries of the array are the roots.
+fn slide_angles(f: &dyn Fn(f64) -> f64) -> ([f64; MAX_DEGREE], usize) {
     const N: usize = 8;
-    let samples: Vec<f64> = (0..N)
-        .map(|k| f(std::f64::consts::TAU * k as f64 / N as f64))
-        .collect();
+    let samples: [f64; N] = std::array::from_fn(|k| f(std::f64::consts::TAU * k as f64 / N as f64));
     // F(θ) = Σ_{k=−2}^{2} c_k e^{ikθ}, c_k = (1/N) Σ F_j e^{−ik θ_j}.
     let coef = |k: i32| -> C {
         let (mut re, mut im) = (0.0, 0.0);
@@ -266,10 +270,12 @@ fn slide_angles(f: &dyn Fn(f64) -> f64) -> Vec<f64> {
         }
         C(re / N as f64, im / N as f64)
     };
-    let c: Vec<C> = (-2..=2).map(coef).collect();
+    let c: [C; 5] = std::array::from_fn(|i| coef(i as i32 - 2));
+    let mut out = [0.0; MAX_DEGREE];
+    let mut n = 0;
     let scale = c.iter().map(|x| x.abs()).fold(0.0, f64::max);
     if scale == 0.0 {
-        return Vec::new();
+        return (out, n);
     }
     // z² F = Σ c_{k} z^{k+2}; drop vanishing outer pairs (c_{−k} = conj c_k).
     let mut lo = 0;
@@ -279,15 +285,15 @@ fn slide_angles(f: &dyn Fn(f64) -> f64) -> Vec<f64> {
         lo += 1;
     }
     if hi == lo {
-        return Vec::new();
+        return (out, n);
     }
     let roots = poly_roots(&c[lo..=hi]);
+    let roots = &roots[..hi - lo];
     let df = |th: f64| {
         let h = 1e-6;
         (f(th + h) - f(th - h)) / (2.0 * h)
     };
-    let mut out: Vec<f64> = Vec::new();
-    for z in roots {
+    for &z in roots {
         let r = z.abs();
         if !(r.ln().abs() < 1e-5) {
             continue;
@@ -310,14 +316,15 @@ fn slide_angles(f: &dyn Fn(f64) -> f64) -> Vec<f64> {
             }
         }
         let th = best.1;
-        if out.iter().all(|&o| {
+        if out[..n].iter().all(|&o| {
             (((o - th) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
                 - std::f64::consts::PI)
                 .abs()
                 > 1e-12
         }) {
-            out.push(th);
+            out[n] = th;
+            n += 1;
         }
     }
-    out
+    (out, n)
 }
