@@ -1,12 +1,14 @@
 //! The reference's full single-contact search (every case tried, every
-//! slide root searched: candidates, slides, Durand–Kerner) allocates
-//! nothing. Its own test binary, without the test harness's threads, so
+//! slide root searched: candidates, slides, Durand–Kerner) and the building
+//! of an impact's contacts (`Contacts::new`, Delassus blocks included)
+//! allocate nothing. Its own test binary, without the test harness's threads, so
 //! that the counting allocator sees this search alone.
 
 use std::alloc::System;
 
 use glam::{DMat3, DVec3};
-use impactmc::physics::friction::{single_contact_full, Case};
+use impactmc::physics::friction::{single_contact_full, Case, Contacts};
+use impactmc::physics::{Ellipsoid, MAX_DROP_PLANES};
 use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
 
 #[global_allocator]
@@ -68,4 +70,40 @@ fn main() {
         "alloc: {} single-contact searches ({stick} stick, {slide} slide), no allocation",
         cases.len()
     );
+
+    // Contacts of one to MAX_DROP_PLANES planes, built in place.
+    let body = Ellipsoid::new([0.3, 0.2, 0.1], 2.0).unwrap();
+    let points: Vec<DVec3> = (0..MAX_DROP_PLANES)
+        .map(|i| DVec3::new(0.1 * i as f64, -0.05, 0.02 * i as f64))
+        .collect();
+    let normals: Vec<DVec3> = (0..MAX_DROP_PLANES)
+        .map(|i| DVec3::new(1.0, i as f64, 2.0).normalize())
+        .collect();
+    let mu: Vec<f64> = (0..MAX_DROP_PLANES).map(|i| 0.1 * i as f64).collect();
+    let k = [0.5; MAX_DROP_PLANES];
+    let rotation = DMat3::from_rotation_y(0.3);
+    let region = Region::new(GLOBAL);
+    let mut scale = 0.0;
+    for n in 1..=MAX_DROP_PLANES {
+        let ct = Contacts::new(
+            &body,
+            rotation,
+            DVec3::new(0.1, 0.0, -1.0),
+            DVec3::new(0.0, 2.0, 0.5),
+            &points[..n],
+            &normals[..n],
+            &mu[..n],
+            &k[..n],
+        );
+        assert_eq!(ct.len(), n);
+        scale += std::hint::black_box(ct).w[n - 1][0].x_axis.x;
+    }
+    let stats = region.change();
+    assert_eq!(
+        (stats.allocations, stats.reallocations),
+        (0, 0),
+        "Contacts::new allocated: {stats:?}"
+    );
+    assert!(scale.is_finite());
+    println!("alloc: Contacts::new for 1 to {MAX_DROP_PLANES} planes, no allocation");
 }

@@ -196,9 +196,12 @@ pub fn solve_impact(
                 .iter()
                 .map(|&i| geometry[i].body_point)
                 .collect::<Vec<_>>(),
-            normals.clone(),
-            touching.iter().map(|&i| planes[i].friction()).collect(),
-            k.clone(),
+            &normals,
+            &touching
+                .iter()
+                .map(|&i| planes[i].friction())
+                .collect::<Vec<_>>(),
+            &k,
         );
         let mut s = match law {
             Law::Paper => friction::paper(&ct),

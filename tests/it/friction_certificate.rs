@@ -123,9 +123,9 @@ fn contacts_of(scene: &impactmc::config::Scene, sampler: &Sampler, i: u64) -> Co
         v,
         w,
         &points,
-        planes.iter().map(|p| p.normal()).collect(),
-        planes.iter().map(|p| p.friction()).collect(),
-        planes.iter().map(|p| p.restitution()).collect(),
+        &planes.iter().map(|p| p.normal()).collect::<Vec<_>>(),
+        &planes.iter().map(|p| p.friction()).collect::<Vec<_>>(),
+        &planes.iter().map(|p| p.restitution()).collect::<Vec<_>>(),
     )
 }
 

@@ -177,38 +177,29 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
         let world = |i: usize, x: [f64; 3]| (0..3).fold(DVec3::ZERO, |a, d| a + dirs[i][d] * x[d]);
         // W_ij in the world frame, from its entries in the two contacts'
         // frames: d·e/m + Σ_k r_i,d,k r_j,e,k / J_k.
-        let w: Vec<Vec<DMat3>> = (0..N)
-            .map(|i| {
-                (0..N)
-                    .map(|j| {
-                        let mut m = DMat3::ZERO;
-                        for d in 0..3 {
-                            for e in 0..3 {
-                                let x = dirs[i][d].dot(dirs[j][e]) * inv_m
-                                    + (lever(i, d) * lever(j, e)).dot(inv_j);
-                                m += outer(dirs[i][d], dirs[j][e]) * x;
-                            }
-                        }
-                        m
-                    })
-                    .collect()
-            })
-            .collect();
-        let vscale = f(fr.vscale[s]);
-        let ct = Contacts {
-            normals: (0..N).map(|i| dirs[i][0]).collect(),
-            mu: (0..N).map(|i| f(c.fr.mu[i])).collect(),
-            k: (0..N).map(|i| f(c.k[i])).collect(),
-            before: (0..N)
-                .map(|i| world(i, std::array::from_fn(|d| f(fr.c0[i][d][s]))))
-                .collect(),
-            w,
-            vscale,
-            pscale: f(c.mass) * vscale,
-        };
-        let p: Vec<DVec3> = (0..N)
-            .map(|i| world(i, std::array::from_fn(|d| f(sw.p[i][d][s]))))
-            .collect();
+        // On the stack: no allocation per lane.
+        let mut ct = Contacts::empty(N);
+        for i in 0..N {
+            for j in 0..N {
+                let mut m = DMat3::ZERO;
+                for d in 0..3 {
+                    for e in 0..3 {
+                        let x = dirs[i][d].dot(dirs[j][e]) * inv_m
+                            + (lever(i, d) * lever(j, e)).dot(inv_j);
+                        m += outer(dirs[i][d], dirs[j][e]) * x;
+                    }
+                }
+                ct.w[i][j] = m;
+            }
+            ct.normals[i] = dirs[i][0];
+            ct.mu[i] = f(c.fr.mu[i]);
+            ct.k[i] = f(c.k[i]);
+            ct.before[i] = world(i, std::array::from_fn(|d| f(fr.c0[i][d][s])));
+        }
+        ct.vscale = f(fr.vscale[s]);
+        ct.pscale = f(c.mass) * ct.vscale;
+        let p: [DVec3; N] =
+            std::array::from_fn(|i| world(i, std::array::from_fn(|d| f(sw.p[i][d][s]))));
         let x = pattern_newton(&ct, &p, cases, false)?;
         let previous: [DVec3; N] =
             std::array::from_fn(|i| world(i, std::array::from_fn(|d| f(self.before[i][d][s]))));

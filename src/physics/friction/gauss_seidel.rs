@@ -7,24 +7,31 @@ use super::single::{single_contact, Case, Single};
 use super::{delassus, tangent_basis};
 use crate::physics::Ellipsoid;
 
-/// The touching contacts of one impact, as the frictional laws see them.
+/// The touching contacts of one impact, as the frictional laws see them:
+/// the first [`Contacts::len`] entries of each array, on the stack (up to
+/// [`MAX_DROP_PLANES`](crate::physics::MAX_DROP_PLANES) contacts, no allocation).
 #[derive(Debug, Clone)]
 pub struct Contacts {
+    n: usize,
     /// Unit normals, Coulomb coefficients, restitutions.
-    pub normals: Vec<DVec3>,
-    pub mu: Vec<f64>,
-    pub k: Vec<f64>,
+    pub normals: [DVec3; MAX],
+    pub mu: [f64; MAX],
+    pub k: [f64; MAX],
     /// Pre-impact contact-point velocities `c⁻_i`.
-    pub before: Vec<DVec3>,
+    pub before: [DVec3; MAX],
     /// Delassus blocks, `w[i][j] = W_ij`.
-    pub w: Vec<Vec<DMat3>>,
+    pub w: [[DMat3; MAX]; MAX],
     /// `|v| + L|ω|` before the impact (m/s), and `m` times it (N·s).
     pub vscale: f64,
     pub pscale: f64,
 }
 
 impl Contacts {
-    /// Contacts at body-frame points `points` with the given planes' data.
+    /// Contacts at body-frame points `points` with the given planes' data
+    /// (one entry per point each).
+    ///
+    /// # Panics
+    /// With more than [`MAX_DROP_PLANES`](crate::physics::MAX_DROP_PLANES) points, or slices of other lengths.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         body: &Ellipsoid,
@@ -32,37 +39,52 @@ impl Contacts {
         velocity: DVec3,
         omega: DVec3,
         points: &[DVec3],
-        normals: Vec<DVec3>,
-        mu: Vec<f64>,
-        k: Vec<f64>,
+        normals: &[DVec3],
+        mu: &[f64],
+        k: &[f64],
     ) -> Self {
-        let before = points
-            .iter()
-            .map(|&x| velocity + rotation * omega.cross(x))
-            .collect();
-        let w = points
-            .iter()
-            .map(|&xi| {
-                points
-                    .iter()
-                    .map(|&xj| delassus(body, rotation, xi, xj))
-                    .collect()
-            })
-            .collect();
-        let vscale = velocity.length() + body.length_scale() * omega.length();
+        let n = points.len();
+        let mut ct = Self::empty(n);
+        ct.normals[..n].copy_from_slice(normals);
+        ct.mu[..n].copy_from_slice(mu);
+        ct.k[..n].copy_from_slice(k);
+        for (i, &xi) in points.iter().enumerate() {
+            ct.before[i] = velocity + rotation * omega.cross(xi);
+            for (j, &xj) in points.iter().enumerate() {
+                ct.w[i][j] = delassus(body, rotation, xi, xj);
+            }
+        }
+        ct.vscale = velocity.length() + body.length_scale() * omega.length();
+        ct.pscale = body.mass() * ct.vscale;
+        ct
+    }
+
+    /// `n` contacts, every entry zero, for the caller to fill.
+    ///
+    /// # Panics
+    /// With more than [`MAX_DROP_PLANES`](crate::physics::MAX_DROP_PLANES) contacts.
+    pub fn empty(n: usize) -> Self {
+        assert!(n <= MAX, "{n} contacts, at most {MAX}");
         Self {
-            normals,
-            mu,
-            k,
-            before,
-            w,
-            vscale,
-            pscale: body.mass() * vscale,
+            n,
+            normals: [DVec3::ZERO; MAX],
+            mu: [0.0; MAX],
+            k: [0.0; MAX],
+            before: [DVec3::ZERO; MAX],
+            w: [[DMat3::ZERO; MAX]; MAX],
+            vscale: 0.0,
+            pscale: 0.0,
         }
     }
 
-    pub(super) fn len(&self) -> usize {
-        self.normals.len()
+    /// The number of contacts.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
     }
 
     /// Newton's normal bias `b_i = k_i min(c⁻_n,i, 0)` (or zero: plastic).
@@ -224,7 +246,7 @@ pub(crate) fn pattern_newton(
     let mut x = [DVec3::ZERO; MAX];
     x[..n].copy_from_slice(p);
     let mut basis = [(DVec3::ZERO, DVec3::ZERO); MAX];
-    for (b, &nv) in basis.iter_mut().zip(&ct.normals) {
+    for (b, &nv) in basis.iter_mut().zip(&ct.normals[..n]) {
         *b = tangent_basis(nv);
     }
     let mut jac = [[0f64; 3 * MAX]; 3 * MAX];
@@ -386,7 +408,7 @@ fn solve_dense(
 /// converge, the same with every k = 0 (`jammed`); if that does not
 /// either, `unconverged` (the caller substitutes the frictionless result).
 pub fn newton(ct: &Contacts) -> Solved {
-    newton_with(ct, ct.mu.iter().all(|&mu| mu < 0.5))
+    newton_with(ct, ct.mu[..ct.len()].iter().all(|&mu| mu < 0.5))
 }
 
 /// `newton` with friction.md's acceleration on or off (it must be off
