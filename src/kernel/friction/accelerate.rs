@@ -14,10 +14,12 @@
 //! lane that jumped goes back to the iterate it jumped from and on with
 //! plain Gauss–Seidel. The jump itself is scalar per lane: it happens a few
 //! times per lane, and a sweep's visits stay in lanes. friction.md checks
-//! every 4 sweeps; the lanes check every 16, because a jump costs a lane
-//! about as much as a few dozen of its sweeps in lanes (measured on the
-//! rough corner: 4 gave 5.6·10⁴ samples/s in f32, 16 gave 1.1·10⁵). The
-//! limit is the same: the confirming sweep decides.
+//! every 4 sweeps; f64 lanes check every 16 and f32 lanes every 32,
+//! because a jump costs a lane about as much as a few dozen of its sweeps
+//! in lanes (measured on the rough corner: 4 gave 5.6·10⁴ samples/s in
+//! f32, 16 gave 1.1·10⁵; with the jump's contacts off the heap, 32 runs
+//! f32 16–19 % faster than 16, and 8 runs it 24–30 % slower). The limit
+//! is the same: the confirming sweep decides.
 
 use glam::{DMat3, DVec3};
 
