@@ -18,7 +18,7 @@
 //! because a jump costs a lane about as much as a few dozen of its sweeps
 //! in lanes (measured on the rough corner: 4 gave 5.6·10⁴ samples/s in
 //! f32, 16 gave 1.1·10⁵; with the jump's contacts off the heap, 32 runs
-//! f32 16–19 % faster than 16, and 8 runs it 24–30 % slower). The limit
+//! f32 7–19 % faster than 16, and 8 runs it 24–30 % slower). The limit
 //! is the same: the confirming sweep decides.
 
 use glam::{DMat3, DVec3};

@@ -106,7 +106,7 @@ impl<T: Real, const N: usize> FrictionConsts<T, N> {
             certified_steps: if f32_lanes { 6 } else { 10 },
             accelerate,
             // Measured on the rough corner (newton, 2026-12-06, interleaved):
-            // f32 lanes ran 16–19 % faster checking every 32 sweeps than
+            // f32 lanes ran 7–19 % faster checking every 32 sweeps than
             // every 16 (48 as fast, 64 slower); f64 lanes as fast at 8 or
             // 16, 20 % slower at 32.
             accelerate_period: if f32_lanes { 32 } else { 16 },
