@@ -188,9 +188,9 @@ pub fn cluster_frame(points: &[Option<&ClusterSums>]) -> PolarsResult<DataFrame>
     for (p, sums) in points.iter().enumerate() {
         let Some(sums) = sums else { continue };
         let keys = sums.keys.len();
+        let per_cluster = sums.laws * keys;
         for (bt, s) in sums.per_batch() {
             for (k, pair) in s.chunks_exact(2).enumerate() {
-                let per_cluster = sums.laws * keys;
                 point.push(p as u32);
                 batch.push(bt);
                 cluster.push((k / per_cluster) as u32);
@@ -216,6 +216,17 @@ pub fn cluster_frame(points: &[Option<&ClusterSums>]) -> PolarsResult<DataFrame>
     )
 }
 
+/// Column `name`'s values, nulls dropped, or why there is no such column
+/// of type `T`.
+fn numeric<T: PolarsNumericType>(df: &DataFrame, name: &str) -> PolarsResult<Vec<T::Native>> {
+    Ok(df
+        .column(name)?
+        .as_materialized_series()
+        .unpack::<T>()?
+        .into_no_null_iter()
+        .collect())
+}
+
 /// A point's cluster sums, per batch: the rows `(cluster, law, estimate,
 /// a, b)`.
 pub type BatchClusters = BTreeMap<u64, Vec<(u32, u32, u32, f64, f64)>>;
@@ -231,26 +242,9 @@ pub fn read_clusters(dir: &Path, points: usize) -> Result<ShardClusters, MergeEr
         message,
     };
     let df = read_frame(&dir.join(f))?;
-    let col = |name: &str| df.column(name).map_err(|e| bad(e.to_string()));
-    let u32s = |name: &str| -> Result<Vec<u32>, MergeError> {
-        Ok(col(name)?
-            .u32()
-            .map_err(|e| bad(e.to_string()))?
-            .into_no_null_iter()
-            .collect())
-    };
-    let f64s = |name: &str| -> Result<Vec<f64>, MergeError> {
-        Ok(col(name)?
-            .f64()
-            .map_err(|e| bad(e.to_string()))?
-            .into_no_null_iter()
-            .collect())
-    };
-    let batch: Vec<u64> = col("batch")?
-        .u64()
-        .map_err(|e| bad(e.to_string()))?
-        .into_no_null_iter()
-        .collect();
+    let u32s = |name: &str| numeric::<UInt32Type>(&df, name).map_err(|e| bad(e.to_string()));
+    let f64s = |name: &str| numeric::<Float64Type>(&df, name).map_err(|e| bad(e.to_string()));
+    let batch = numeric::<UInt64Type>(&df, "batch").map_err(|e| bad(e.to_string()))?;
     let (point, cluster, law, estimate, a, b) = (
         u32s("point")?,
         u32s("cluster")?,
@@ -285,8 +279,7 @@ pub fn merge_clusters(
     if rows.len() as u64 != batches {
         return Ok(None);
     }
-    let empty = ClusterSums::from_batches(samples, batch_size, laws, Vec::new());
-    let (nl, nk) = (empty.laws, empty.keys.len());
+    let (nl, nk) = (laws.len(), crate::stats::clusters::keys(laws).len());
     let mut per_batch = Vec::with_capacity(rows.len());
     for (batch, r) in rows {
         let clusters = r.len() / (nl * nk).max(1);

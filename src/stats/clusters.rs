@@ -127,6 +127,16 @@ fn digest(acc: &RunAcc, out: &mut Vec<f64>) {
     }
 }
 
+/// The estimates of a law of `laws` (the same for every law), in
+/// [`walk_law`]'s order.
+pub fn keys(laws: &[LawAcc]) -> Vec<Key> {
+    let mut keys = Vec::new();
+    if let Some(law) = laws.first() {
+        walk_law(law, &mut |k, _, _| keys.push(k));
+    }
+    keys
+}
+
 /// A run's cluster sums, in sample order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClusterSums {
@@ -154,10 +164,7 @@ impl ClusterSums {
         mut batches: Vec<(u64, Vec<f64>)>,
     ) -> Self {
         batches.sort_unstable_by_key(|b| b.0);
-        let mut keys = Vec::new();
-        if let Some(law) = laws.first() {
-            walk_law(law, &mut |k, _, _| keys.push(k));
-        }
+        let keys = keys(laws);
         let width = (laws.len() * keys.len() * 2).max(1);
         Self {
             keys,
@@ -170,7 +177,7 @@ impl ClusterSums {
     }
 
     /// Sums per cluster.
-    pub fn width(&self) -> usize {
+    fn width(&self) -> usize {
         self.laws * self.keys.len() * 2
     }
 
@@ -183,11 +190,6 @@ impl ClusterSums {
             at += n * w;
             (b, s)
         })
-    }
-
-    /// Whether the batches recorded are all `0..batches`, in order.
-    pub fn covers(&self, batches: u64) -> bool {
-        self.batches.len() as u64 == batches && self.batches.iter().zip(0..).all(|(b, i)| b.0 == i)
     }
 
     /// The clusters recorded.
