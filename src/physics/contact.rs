@@ -36,6 +36,7 @@ fn support_distance(du: DVec3) -> f64 {
 impl ContactGeometry {
     /// Contact of `body` at pose (`rotation` body → world, centre `centre`)
     /// with `plane`.
+    #[inline]
     pub fn new(body: &Ellipsoid, rotation: DMat3, centre: DVec3, plane: &Plane) -> Self {
         let n = plane.normal();
         let u = rotation.transpose() * n;
@@ -64,6 +65,7 @@ impl ContactGeometry {
 
     /// Normal velocity of the contact point, `v_n = n·v + ρ·ω` (m/s), with
     /// `v` the world centre velocity and `ω` the body-frame angular velocity.
+    #[inline]
     pub fn normal_velocity(&self, plane: &Plane, velocity: DVec3, omega_body: DVec3) -> f64 {
         plane.normal().dot(velocity) + self.lever.dot(omega_body)
     }

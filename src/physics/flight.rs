@@ -273,6 +273,85 @@ pub fn time_of_impact(
     None
 }
 
+/// Steps [`contact_near`] takes at most.
+pub const CONTACT_STEPS: u32 = 8;
+
+/// The contact next to `t0` of a flight from `start` (centre on its
+/// parabola under `gravity`, attitude and body spin `attitude(t)`, `None`
+/// where it cannot say), by Newton's method on the signed distance of the
+/// nearest plane that can be hit, whose rate is its support point's normal
+/// velocity, until that distance is within `tolerance` of zero. A plane can
+/// be hit if it is beyond `slack` (at least `tolerance`: how well the
+/// distances are known) or closing, as [`time_of_impact`] arms them; so a
+/// plane the body is leaving (the last impact's) is not taken for the
+/// contact. For a search that stopped near a contact it could not resolve
+/// (f32 lanes stop up to 256 ulp of the body short of it): the impact then
+/// happens at contact, to `tolerance`.
+///
+/// `None` (the flight is then flown again by the reference) where the
+/// nearest plane is not closing (a graze), some plane is penetrated beyond
+/// `slack` and opening (a contact passed), the time leaves `[0, horizon]`
+/// or `attitude` cannot say, or [`CONTACT_STEPS`] steps do not converge.
+/// Also returns the steps taken.
+#[allow(clippy::too_many_arguments)]
+pub fn contact_near(
+    body: &Ellipsoid,
+    start: &Motion,
+    planes: &[Plane],
+    gravity: DVec3,
+    attitude: impl Fn(f64) -> Option<(DMat3, DVec3)>,
+    t0: f64,
+    (tolerance, slack): (f64, f64),
+    horizon: f64,
+) -> Option<(f64, Motion, u32)> {
+    let mut t = t0;
+    for steps in 1..=CONTACT_STEPS {
+        let (rotation, omega) = attitude(t)?;
+        let m = Motion {
+            centre: start.centre + start.velocity * t + gravity * (0.5 * t * t),
+            rotation,
+            velocity: start.velocity + gravity * t,
+            omega,
+        };
+        let (mut d, mut rate) = (f64::INFINITY, 0.0);
+        for p in planes {
+            let g = ContactGeometry::new(body, m.rotation, m.centre, p);
+            let v = g.normal_velocity(p, m.velocity, m.omega);
+            if g.distance < -slack && v >= 0.0 {
+                return None;
+            }
+            let live = g.distance > slack || v < 0.0;
+            if live && g.distance < d {
+                (d, rate) = (g.distance, v);
+            }
+        }
+        if !d.is_finite() || rate >= 0.0 {
+            return None;
+        }
+        if d.abs() <= tolerance {
+            return Some((t, m, steps));
+        }
+        t -= d / rate;
+        if !(0.0..=horizon).contains(&t) {
+            return None;
+        }
+    }
+    None
+}
+
+/// Torque-free attitude and body spin `dt` on from (`rotation`, `omega`),
+/// to second order in the turn |ω dt|: the body-frame rotation vector
+/// ω dt + ω̇ dt²/2 and the spin ω + ω̇ dt + ω̈ dt²/2 from Euler's equations
+/// (J ω̇ = (J ω) × ω). Its error is of the order of the turn cubed (rad).
+pub fn short_turn(body: &Ellipsoid, rotation: DMat3, omega: DVec3, dt: f64) -> (DMat3, DVec3) {
+    let j = body.inertia();
+    let w_dot = (j * omega).cross(omega) / j;
+    let w_ddot = ((j * w_dot).cross(omega) + (j * omega).cross(w_dot)) / j;
+    let theta = (omega + w_dot * (0.5 * dt)) * dt;
+    let turn = axis_angle(theta, theta.length());
+    (rotation * turn, omega + (w_dot + w_ddot * (0.5 * dt)) * dt)
+}
+
 /// The first time the body's bounding sphere (radius `reach` about the
 /// centre) comes within `tolerance` of some plane: before it no plane can be
 /// within the tolerance, whatever the rotation. Zero if the sphere is that

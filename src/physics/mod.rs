@@ -26,7 +26,8 @@ pub use contact::{inverse_inertance, kinetic_energy, support_point_lagrange, Con
 pub(crate) use elliptic::THETA_TERMS;
 pub use elliptic::{carlson_rf, carlson_rf_series, carlson_rj, Jacobi, ThetaPhase};
 pub use flight::{
-    advance, precess, sphere_clearance, spin_bound, time_of_impact, Impact, Motion, Rotation,
+    advance, contact_near, precess, short_turn, sphere_clearance, spin_bound, time_of_impact,
+    Impact, Motion, Rotation, CONTACT_STEPS,
 };
 pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law,

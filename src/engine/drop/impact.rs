@@ -50,9 +50,9 @@ pub(super) struct Lane {
     pub(super) item: usize,
     pub(super) law: usize,
     pub(super) walk: Walk,
-    /// Its flights are flown by the reference from now on (a coarse
-    /// lane's touch without approach: the walk rocks within the lanes'
-    /// floor).
+    /// Its flights are flown by the reference from now on (an f32 impact
+    /// that could not be located at contact: the walk rocks or grazes
+    /// within the lanes' floor).
     pub(super) by_reference: bool,
 }
 
@@ -77,11 +77,6 @@ pub(super) struct Moves<'a> {
     pub(super) floor: f64,
     /// Planes within this distance take part ([`Wave::contact_tolerance`]).
     pub(super) tolerance: f64,
-    /// Touches without approach are flown again by the reference
-    /// ([`Wave::coarse`]).
-    pub(super) coarse: bool,
-    /// The lanes whose flight the reference flies again.
-    pub(super) refly: &'a mut Vec<usize>,
 }
 
 impl Moves<'_> {
@@ -89,11 +84,6 @@ impl Moves<'_> {
     /// solve it), by the reference or not.
     pub(super) fn apply(&mut self, p: &Pending, strike: Option<&Strike>, by_reference: bool) {
         let lane = self.lanes[p.lane].as_mut().expect("live lane");
-        if self.coarse && strike.is_some_and(|s| s.mask() == 0) {
-            // The walk stays at its flight's start.
-            self.refly.push(p.lane);
-            return;
-        }
         let log = &mut self.logs[lane.item];
         log.reference_impacts += by_reference as u32;
         let how = How {

@@ -13,9 +13,16 @@
 //! closed-form in lanes (an axisymmetric body, a steady or near-separatrix
 //! spin, RK4 asked for), searches that spend their step budget, impacts
 //! the kernel flags (its own fallback rules), that touch more than three
-//! planes or penetrate one, and in f32 a walk from its first touch without
-//! approach on (the flight flown again from its start: [`Wave`]'s
-//! `coarse`).
+//! planes or penetrate one, and in f32 a walk from the first impact that
+//! cannot be located at contact in f64 on (a touch without approach within
+//! the lanes' floor, a graze: the flight flown again from its start,
+//! [`Wave`]'s `polish`).
+//!
+//! f32 lanes stop their search up to 256 ulp of the body short of contact;
+//! each impact is then located at contact in f64 by Newton's method on the
+//! signed distance, on the flight's f64 motion (the set-up's constants), so
+//! that the state at the impact and the other planes' distances are those
+//! at contact, as in f64.
 //!
 //! Which lane a walk lands in never changes its result: its flights and
 //! impacts depend only on its own state, and it is recorded in its own log
@@ -31,7 +38,7 @@ use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::{Law, Motion, Plane, Rotation};
+use crate::physics::{contact_near, short_turn, ContactGeometry, Law, Motion, Plane, Rotation};
 use crate::stats::drops::Ending;
 
 use super::ctx::DropCtx;
@@ -41,6 +48,10 @@ use super::walk::{Log, Walk};
 
 /// Search steps between harvests of the done lanes.
 const STEPS: u32 = 4;
+/// The largest turn (rad) an f32 impact is located over from the lanes'
+/// pose ([`short_turn`]: an error of about a sixth of its cube, 2e-7 rad,
+/// below the lanes' own resolution of a distance, 64 ulp of the body).
+const MAX_TURN: f64 = 1e-2;
 /// Steps a lane's search may take before the reference flies it.
 const BUDGET: u32 = 2_000;
 
@@ -65,11 +76,18 @@ pub(crate) struct Wave<T, const N: usize> {
     /// Flights in lanes (false: every flight by the reference).
     closed_form: bool,
     /// The lanes' search stops farther from contact than the scene's
-    /// `toi_tolerance` (f32). A touch without approach is then an early
-    /// stop within the lanes' floor (a rocking body whose contact point
-    /// approaches only nearer the plane), so the reference flies that
-    /// flight again from its start.
-    coarse: bool,
+    /// `toi_tolerance` (f32: 256 ulp of the body). Each impact is then
+    /// located at contact in f64 from the lanes' state where they stopped
+    /// ([`crate::physics::contact_near`]); where it cannot be (a touch
+    /// without approach within the lanes' floor, a graze), or where a
+    /// second plane is within what the lanes' attitude resolves
+    /// (`resolution`), the reference flies that flight again from its
+    /// start.
+    polish: bool,
+    /// How far off the lanes' attitude can put a plane's distance (m):
+    /// 64 ulp of the type at the body's largest semi-axis (measured: at
+    /// most 14 ulp over drop_corner's and drop_dice's f32 impacts).
+    resolution: f64,
 }
 
 impl<T: Real, const N: usize> Wave<T, N> {
@@ -80,9 +98,12 @@ impl<T: Real, const N: usize> Wave<T, N> {
         let gravity = DVec3::new(0.0, 0.0, -fx.gravity);
         let flights =
             FlightLanes::new(scene.body(), &planes, gravity, fx.toi_tolerance, fx.horizon);
+        let polish = flights.tolerance() > fx.toi_tolerance;
         Self {
-            contact_tolerance: ctx.flight.contact_tolerance.max(flights.tolerance()),
-            coarse: flights.tolerance() > fx.toi_tolerance,
+            // Located in f64, impacts take the reference's planes.
+            contact_tolerance: ctx.flight.contact_tolerance,
+            polish,
+            resolution: 64.0 * T::EPSILON.to_f64() * scene.body().semi_axes().max_element(),
             flights,
             times: Times::new(),
             poses: Poses::new(),
@@ -143,8 +164,12 @@ impl DropCtx<'_> {
                 }
                 harvested += 1;
                 if w.times.hit[s] {
-                    let p = self.pending_of(s, lane, w.contact_tolerance, &w.times, &w.poses);
-                    w.pending.push(p);
+                    let polish = w.polish.then_some(w.resolution);
+                    match self.pending_of(s, lane, w.contact_tolerance, &w.times, &w.poses, polish)
+                    {
+                        Some(p) => w.pending.push(p),
+                        None => w.refly.push(s),
+                    }
                 } else if w.times.stuck[s] {
                     // The reference flies it from the flight's start.
                     logs[lane.item].reference_flights += 1;
@@ -270,7 +295,10 @@ impl DropCtx<'_> {
 
     /// Lane `s`'s impact: the motion at it in f64 (the centre's parabola
     /// from the flight's start, the attitude and spin from the lanes), the
-    /// planes that touch and the law that solves it.
+    /// planes that touch and the law that solves it. With `polish` (the
+    /// lanes' resolution, m), the impact is first located at contact from
+    /// the lanes' state, and `None` (the reference flies the flight again)
+    /// if it cannot be or if another plane lies within that resolution.
     fn pending_of<T: Real>(
         &self,
         s: usize,
@@ -278,18 +306,44 @@ impl DropCtx<'_> {
         contact_tolerance: f64,
         times: &Times<T>,
         poses: &Poses<T>,
-    ) -> Pending {
+        polish: Option<f64>,
+    ) -> Option<Pending> {
         let t = times.time[s].to_f64();
         let m0 = &lane.walk.motion;
+        let gravity = self.flight.gravity;
         let (rotation, omega) = poses.lane(s);
         // The lanes' attitude, made orthonormal to the reference's rounding.
-        let q = DQuat::from_mat3(&rotation).normalize();
-        let gravity = self.flight.gravity;
-        let motion = Motion {
-            centre: m0.centre + m0.velocity * t + gravity * (0.5 * t * t),
-            rotation: DMat3::from_quat(q),
-            velocity: m0.velocity + gravity * t,
-            omega,
+        let rotation = DMat3::from_quat(DQuat::from_mat3(&rotation).normalize());
+        let (t, motion) = match polish {
+            Some(resolution) => {
+                let (f, body) = (&self.flight, self.scene.body());
+                let (t0, wn) = (t, omega.length());
+                let at = |t: f64| {
+                    let dt = t - t0;
+                    (wn * dt.abs() <= MAX_TURN).then(|| short_turn(body, rotation, omega, dt))
+                };
+                let tol = (f.toi_tolerance, resolution);
+                let (t, m, _) = contact_near(body, m0, &f.planes, gravity, at, t, tol, f.horizon)?;
+                let near = f.planes.iter().filter(|p| {
+                    ContactGeometry::new(body, m.rotation, m.centre, p)
+                        .distance
+                        .abs()
+                        < resolution
+                });
+                if near.count() > 1 {
+                    return None;
+                }
+                (t, m)
+            }
+            None => {
+                let motion = Motion {
+                    centre: m0.centre + m0.velocity * t + gravity * (0.5 * t * t),
+                    rotation,
+                    velocity: m0.velocity + gravity * t,
+                    omega,
+                };
+                (t, motion)
+            }
         };
         let body = self.scene.body();
         let mut mask = 0;
@@ -307,7 +361,7 @@ impl DropCtx<'_> {
             Law::Stronge if several => (Law::Newton, true),
             law => (law, false),
         };
-        Pending {
+        Some(Pending {
             lane: s,
             law,
             coupled_fallback,
@@ -319,7 +373,7 @@ impl DropCtx<'_> {
             },
             time: t,
             motion,
-        }
+        })
     }
 
     /// Solves the waiting impacts, grouped by plane set and law, each
@@ -332,7 +386,6 @@ impl DropCtx<'_> {
             kernels,
             lanes,
             refly,
-            coarse,
             contact_tolerance,
             ..
         } = w;
@@ -342,8 +395,6 @@ impl DropCtx<'_> {
             logs,
             floor: self.scene.effects().energy_floor,
             tolerance: *contact_tolerance,
-            coarse: *coarse,
-            refly,
         };
         for group in pending.chunk_by(|a, b| a.mask == b.mask && a.law == b.law) {
             let mask = group[0].mask;
