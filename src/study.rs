@@ -760,7 +760,9 @@ impl Study {
             .iter()
             .map(|p| {
                 let laws = p.scene.laws().iter().map(|l| l.name());
-                (p.values.clone(), laws.zip(&p.result.acc.drops).collect())
+                let resolved_from = p.scene.effects().toi_tolerance;
+                let accs = laws.zip(&p.result.acc.drops).collect();
+                (p.values.clone(), (accs, resolved_from))
             })
             .collect();
         let contacts = &self.points[0].summary.contacts;

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::Scene;
 pub use crate::output::named::{FromNull, Named};
 use crate::stats::accumulators::LawAcc;
-use crate::stats::drops::{DropAcc, Ending, SIMULTANEITY_TOLERANCES};
+use crate::stats::drops::{resolved, DropAcc, Ending, SIMULTANEITY_TOLERANCES};
 use crate::stats::RunResult;
 
 use super::stat_summary::nan_if_null;
@@ -249,7 +249,8 @@ pub struct BounceSummary {
     /// |v| before (m/s).
     pub speed_before: StatSummary,
     /// By tolerance (metres, `1e-9`): the fraction whose second-nearest
-    /// plane was within it at the impact.
+    /// plane was within it at the impact; NaN (null in JSON) below
+    /// [`DropSummary::simultaneity_resolved_from`] (not resolved).
     pub simultaneous_within_tolerance: Named<f64>,
     /// Impacts flagged energy_gain.
     pub energy_gain: u64,
@@ -281,6 +282,11 @@ pub struct DropSummary {
     pub reference_flights: u64,
     /// Impacts the lanes left to the f64 reference.
     pub reference_impacts: u64,
+    /// The smallest simultaneity tolerance the run resolves (m): the
+    /// distance within which its searches locate a contact (the scene's
+    /// `toi_tolerance`). Below it the shares are null.
+    #[serde(default)]
+    pub simultaneity_resolved_from: f64,
 }
 
 /// How fast a run went.
@@ -361,7 +367,11 @@ pub fn sequence_name(masks: &[usize], names: &[String]) -> String {
 /// of the planes hit, energy ratio, interval, speed before, simultaneity),
 /// the number of impacts, how the samples ended, the final axis up and the
 /// sequences of planes hit over the first impacts (most frequent first).
-pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
+///
+/// Simultaneity tolerances below `resolved_from` (the scene's
+/// `toi_tolerance`: contacts are located only to within it) are reported
+/// as not resolved (null).
+pub fn drop_summary(a: &DropAcc, names: &[String], resolved_from: f64) -> DropSummary {
     let n = a.samples.max(1) as f64;
     let bounces = a
         .bounces
@@ -378,8 +388,9 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
                 }
             }
             let mut within = Named::default();
-            for (tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
-                within.insert(format!("{tol:e}"), of_reached(c));
+            for (&tol, &c) in SIMULTANEITY_TOLERANCES.iter().zip(&b.within) {
+                let share = resolved(tol, resolved_from).then(|| of_reached(c));
+                within.insert(format!("{tol:e}"), share.unwrap_or(f64::NAN));
             }
             BounceSummary {
                 bounce: k + 1,
@@ -437,6 +448,7 @@ pub fn drop_summary(a: &DropAcc, names: &[String]) -> DropSummary {
             b: up(1),
             c: up(2),
         },
+        simultaneity_resolved_from: resolved_from,
         sequence_impacts: a.sequence_impacts(),
         sequences: a
             .sequences_by_frequency()
@@ -674,7 +686,10 @@ impl Summary {
                 .laws()
                 .iter()
                 .zip(&acc.drops)
-                .map(|(law, acc)| (law.name(), drop_summary(acc, &contacts)))
+                .map(|(law, acc)| {
+                    let resolved_from = scene.effects().toi_tolerance;
+                    (law.name(), drop_summary(acc, &contacts, resolved_from))
+                })
                 .collect(),
         );
         // The precision the lanes computed in (a drop's per-impact rows

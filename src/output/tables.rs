@@ -447,8 +447,9 @@ pub fn write_parquet(
     })
 }
 
-/// A grid point's drop statistics per law: (law name, accumulators).
-pub type DropAccs<'a> = Vec<(String, &'a crate::stats::drops::DropAcc)>;
+/// One point's drop accumulators by law, and the smallest simultaneity
+/// tolerance it resolves ([`crate::stats::drops::resolved`]).
+pub type DropAccs<'a> = (Vec<(String, &'a crate::stats::drops::DropAcc)>, f64);
 
 /// The tables of a drop study, each with `point` and the `sweep_*` columns
 /// in front: `bounces.parquet` (law, bounce, reached, fraction_of_samples,
@@ -456,7 +457,8 @@ pub type DropAccs<'a> = Vec<(String, &'a crate::stats::drops::DropAcc)>;
 /// speed_before's mean), `planes_hit.parquet` (law, bounce, planes, count,
 /// fraction of the samples reaching the bounce), `simultaneity.parquet`
 /// (law, bounce, tolerance, fraction of its impacts whose second-closest
-/// plane was within it) and `sequences.parquet` (law, sequence of the
+/// plane was within it: null where the point does not resolve the
+/// tolerance) and `sequences.parquet` (law, sequence of the
 /// planes hit over the first impacts, count, fraction of samples).
 pub fn drop_frames(
     points: &[(PointValues, DropAccs<'_>)],
@@ -464,10 +466,10 @@ pub fn drop_frames(
 ) -> PolarsResult<Vec<(&'static str, DataFrame)>> {
     use crate::output::summary::{active_set_name, sequence_name};
     // Bounce tables exist where bounce accumulators do (drop scenes).
-    if points.iter().all(|(_, laws)| laws.is_empty()) {
+    if points.iter().all(|(_, (laws, _))| laws.is_empty()) {
         return Ok(Vec::new());
     }
-    use crate::stats::drops::SIMULTANEITY_TOLERANCES;
+    use crate::stats::drops::{resolved, SIMULTANEITY_TOLERANCES};
     // One end of each row's interval, null where undefined.
     let ends = |name: &str, cis: &[Interval], k: usize| {
         let v: Vec<Option<f64>> = cis
@@ -477,7 +479,7 @@ pub fn drop_frames(
         Column::new(name.into(), v)
     };
     let mut out: [Vec<DataFrame>; 4] = Default::default();
-    for (i, (values, laws)) in points.iter().enumerate() {
+    for (i, (values, (laws, resolved_from))) in points.iter().enumerate() {
         let (mut law, mut bounce, mut reached, mut frac) = (vec![], vec![], vec![], vec![]);
         let mut cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); 6];
         let (mut p_law, mut p_bounce, mut p_set, mut p_count, mut p_frac) =
@@ -517,8 +519,13 @@ pub fn drop_frames(
                     s_law.push(l.clone());
                     s_bounce.push(k as u32 + 1);
                     s_tol.push(tol);
-                    s_frac.push((b.reached > 0).then(|| c as f64 / b.reached as f64));
-                    s_ci.push(Interval::wilson(c, b.reached));
+                    let on = b.reached > 0 && resolved(tol, *resolved_from);
+                    s_frac.push(on.then(|| c as f64 / b.reached as f64));
+                    s_ci.push(if on {
+                        Interval::wilson(c, b.reached)
+                    } else {
+                        Interval([f64::NAN; 2])
+                    });
                 }
             }
             for (cell, &c) in a.sequences.iter().enumerate() {

@@ -271,6 +271,13 @@ fn drop_text(s: &mut String, d: &DropSummary) {
             b.speed_before.mean,
         );
     }
+    // The simultaneity curve is in summary.json and simultaneity.parquet;
+    // the text says where it stops being resolved.
+    let _ = writeln!(
+        s,
+        "  simultaneity resolved from {:.0e} m (contacts are located to within it); smaller tolerances are null, not 0",
+        d.simultaneity_resolved_from
+    );
     let top: Vec<String> = d
         .sequences
         .iter()

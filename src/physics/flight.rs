@@ -274,37 +274,43 @@ pub fn time_of_impact(
 }
 
 /// Steps [`contact_near`] takes at most.
-pub const CONTACT_STEPS: u32 = 8;
+pub const CONTACT_STEPS: u32 = 40;
 
 /// The contact next to `t0` of a flight from `start` (centre on its
 /// parabola under `gravity`, attitude and body spin `attitude(t)`, `None`
-/// where it cannot say), by Newton's method on the signed distance of the
-/// nearest plane that can be hit, whose rate is its support point's normal
-/// velocity, until that distance is within `tolerance` of zero. A plane can
-/// be hit if it is beyond `slack` (at least `tolerance`: how well the
-/// distances are known) or closing, as [`time_of_impact`] arms them; so a
-/// plane the body is leaving (the last impact's) is not taken for the
-/// contact. For a search that stopped near a contact it could not resolve
-/// (f32 lanes stop up to 256 ulp of the body short of it): the impact then
-/// happens at contact, to `tolerance`.
+/// where it cannot say), until the signed distance of the nearest plane
+/// that can be hit is within `tolerance` of zero. A plane can be hit if it
+/// is beyond `slack` (at least `tolerance`: how well the distances are
+/// known) or closing, as [`time_of_impact`] arms them; so a plane the body
+/// is leaving (the last impact's) is not taken for the contact. For a
+/// search that stopped near a contact it could not resolve (f32 lanes stop
+/// up to 256 ulp of the body short of it): the impact then happens at
+/// contact, to `tolerance`.
+///
+/// Newton's method on that distance, whose rate is the support point's
+/// normal velocity, safeguarded by bisection: once a time before the
+/// contact (every plane that can be hit beyond `tolerance`, or none that
+/// can) and one after it (the nearest below −`tolerance`) are known, a
+/// Newton step that leaves them is replaced by their midpoint.
 ///
 /// `None` (the flight is then flown again by the reference) where the
-/// nearest plane is not closing (a graze), some plane is penetrated beyond
-/// `slack` and opening (a contact passed), the time leaves `[0, horizon]`
-/// or `attitude` cannot say, or [`CONTACT_STEPS`] steps do not converge.
-/// Also returns the steps taken.
+/// nearest plane is not closing and no time after the contact is known (a
+/// graze), some plane is penetrated beyond `slack` and opening (a contact
+/// passed), the time leaves `[0, horizon]` or `attitude` cannot say, or
+/// [`CONTACT_STEPS`] steps do not converge. Also returns the steps taken.
 #[allow(clippy::too_many_arguments)]
 pub fn contact_near(
     body: &Ellipsoid,
     start: &Motion,
     planes: &[Plane],
     gravity: DVec3,
-    attitude: impl Fn(f64) -> Option<(DMat3, DVec3)>,
+    mut attitude: impl FnMut(f64) -> Option<(DMat3, DVec3)>,
     t0: f64,
     (tolerance, slack): (f64, f64),
     horizon: f64,
 ) -> Option<(f64, Motion, u32)> {
     let mut t = t0;
+    let (mut before, mut after) = (f64::NEG_INFINITY, f64::INFINITY);
     for steps in 1..=CONTACT_STEPS {
         let (rotation, omega) = attitude(t)?;
         let m = Motion {
@@ -325,13 +331,22 @@ pub fn contact_near(
                 (d, rate) = (g.distance, v);
             }
         }
-        if !d.is_finite() || rate >= 0.0 {
-            return None;
-        }
-        if d.abs() <= tolerance {
+        if d.abs() <= tolerance && rate < 0.0 {
             return Some((t, m, steps));
         }
-        t -= d / rate;
+        if d > tolerance {
+            before = before.max(t);
+        } else if d < -tolerance {
+            after = after.min(t);
+        }
+        let newton = t - d / rate;
+        t = if rate < 0.0 && d.is_finite() && newton > before && newton < after {
+            newton
+        } else if before.is_finite() && after.is_finite() {
+            0.5 * (before + after)
+        } else {
+            return None;
+        };
         if !(0.0..=horizon).contains(&t) {
             return None;
         }
@@ -347,9 +362,70 @@ pub fn short_turn(body: &Ellipsoid, rotation: DMat3, omega: DVec3, dt: f64) -> (
     let j = body.inertia();
     let w_dot = (j * omega).cross(omega) / j;
     let w_ddot = ((j * w_dot).cross(omega) + (j * omega).cross(w_dot)) / j;
-    let theta = (omega + w_dot * (0.5 * dt)) * dt;
-    let turn = axis_angle(theta, theta.length());
+    let th = (omega + w_dot * (0.5 * dt)) * dt;
+    let t2 = th.length_squared();
+    // Rodrigues, I + (sin θ/θ) K + ((1 − cos θ)/θ²) K², K = [θ]×: for a
+    // short turn (θ ≤ 0.02) the series to θ⁴ are exact in f64.
+    let (a, b) = if t2 <= 4e-4 {
+        (
+            1.0 - t2 / 6.0 * (1.0 - t2 / 20.0),
+            0.5 - t2 / 24.0 * (1.0 - t2 / 30.0),
+        )
+    } else {
+        let t = t2.sqrt();
+        let (sin, cos) = t.sin_cos();
+        (sin / t, (1.0 - cos) / t2)
+    };
+    let k = DMat3::from_cols(
+        DVec3::new(0.0, th.z, -th.y),
+        DVec3::new(-th.z, 0.0, th.x),
+        DVec3::new(th.y, -th.x, 0.0),
+    );
+    let turn = DMat3::IDENTITY + k * a + k * k * b;
     (rotation * turn, omega + (w_dot + w_ddot * (0.5 * dt)) * dt)
+}
+
+/// A torque-free attitude carried from a known one by [`short_turn`]s of at
+/// most `step` rad each, up to `most` rad away: for locating an impact near
+/// a pose known only there (an f32 lane's). Each evaluation starts from the
+/// known pose, so its error depends on how far it is, not on the
+/// evaluations before it: about a sixth of a step's cube per step.
+#[derive(Debug, Clone, Copy)]
+pub struct Carried {
+    t: f64,
+    rotation: DMat3,
+    omega: DVec3,
+    step: f64,
+    most: f64,
+}
+
+impl Carried {
+    /// From (`rotation`, `omega`) at time `t`.
+    pub fn new(t: f64, rotation: DMat3, omega: DVec3, step: f64, most: f64) -> Self {
+        Self {
+            t,
+            rotation,
+            omega,
+            step,
+            most,
+        }
+    }
+
+    /// The attitude and body spin at `t`; `None` past `most`.
+    pub fn at(&self, body: &Ellipsoid, t: f64) -> Option<(DMat3, DVec3)> {
+        let dt = t - self.t;
+        let turn = self.omega.length() * dt.abs();
+        if turn > self.most {
+            return None;
+        }
+        let n = (turn / self.step).ceil().max(1.0);
+        let h = dt / n;
+        let (mut r, mut w) = (self.rotation, self.omega);
+        for _ in 0..n as usize {
+            (r, w) = short_turn(body, r, w, h);
+        }
+        Some((r, w))
+    }
 }
 
 /// The first time the body's bounding sphere (radius `reach` about the

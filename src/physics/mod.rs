@@ -27,7 +27,7 @@ pub(crate) use elliptic::THETA_TERMS;
 pub use elliptic::{carlson_rf, carlson_rf_series, carlson_rj, Jacobi, ThetaPhase};
 pub use flight::{
     advance, contact_near, precess, short_turn, sphere_clearance, spin_bound, time_of_impact,
-    Impact, Motion, Rotation, CONTACT_STEPS,
+    Carried, Impact, Motion, Rotation, CONTACT_STEPS,
 };
 pub use laws::{
     apply_impulses, solve_impact, ContactOutcome, Flags, ImpactError, ImpactOutcome, Law,

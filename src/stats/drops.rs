@@ -16,6 +16,14 @@ pub const SIMULTANEITY_TOLERANCES: [f64; 12] = [
     1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1,
 ];
 
+/// Whether a run whose searches locate contacts to within `resolved_from`
+/// (m, the scene's `toi_tolerance`) resolves simultaneity at `tolerance`:
+/// the nearest plane is then within `resolved_from` of zero, so a second
+/// plane within a smaller tolerance says nothing the run can tell apart.
+pub fn resolved(tolerance: f64, resolved_from: f64) -> bool {
+    tolerance >= resolved_from
+}
+
 /// Most impacts a sequence of planes hit covers.
 pub const SEQUENCE_IMPACTS: usize = 3;
 

@@ -38,7 +38,7 @@ use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::{contact_near, short_turn, ContactGeometry, Law, Motion, Plane, Rotation};
+use crate::physics::{contact_near, Carried, ContactGeometry, Law, Motion, Plane, Rotation};
 use crate::stats::drops::Ending;
 
 use super::ctx::DropCtx;
@@ -48,10 +48,12 @@ use super::walk::{Log, Walk};
 
 /// Search steps between harvests of the done lanes.
 const STEPS: u32 = 4;
-/// The largest turn (rad) an f32 impact is located over from the lanes'
-/// pose ([`short_turn`]: an error of about a sixth of its cube, 2e-7 rad,
-/// below the lanes' own resolution of a distance, 64 ulp of the body).
-const MAX_TURN: f64 = 1e-2;
+/// How far (rad) an f32 impact is located from the lanes' pose, and the
+/// second-order turns it is carried by ([`Carried`]: an error of about a
+/// sixth of a turn's cube per turn, at most 40 × 2e-8 = 8e-7 rad, below the
+/// lanes' own resolution of a distance, 64 ulp of the body).
+const MAX_TURN: f64 = 0.2;
+const TURN_STEP: f64 = 5e-3;
 /// Steps a lane's search may take before the reference flies it.
 const BUDGET: u32 = 2_000;
 
@@ -69,9 +71,11 @@ pub(crate) struct Wave<T, const N: usize> {
     setup_work: Box<SetupWork>,
     setup: Box<Setup>,
     pending: Vec<Pending>,
-    refly: Vec<usize>,
+    /// Lanes whose flight the reference flies again from its start, and
+    /// whether the rest of the walk is the reference's too.
+    refly: Vec<(usize, bool)>,
     /// Planes within this distance at an impact take part (the scene's
-    /// contact tolerance, or the lanes' search tolerance if larger).
+    /// contact tolerance, in either precision).
     contact_tolerance: f64,
     /// Flights in lanes (false: every flight by the reference).
     closed_form: bool,
@@ -79,10 +83,10 @@ pub(crate) struct Wave<T, const N: usize> {
     /// `toi_tolerance` (f32: 256 ulp of the body). Each impact is then
     /// located at contact in f64 from the lanes' state where they stopped
     /// ([`crate::physics::contact_near`]); where it cannot be (a touch
-    /// without approach within the lanes' floor, a graze), or where a
-    /// second plane is within what the lanes' attitude resolves
-    /// (`resolution`), the reference flies that flight again from its
-    /// start.
+    /// without approach within the lanes' floor, a graze: the rest of the
+    /// walk too), or where a second plane is within what the lanes'
+    /// attitude resolves (`resolution`), the reference flies that flight
+    /// again from its start.
     polish: bool,
     /// How far off the lanes' attitude can put a plane's distance (m):
     /// 64 ulp of the type at the body's largest semi-axis (measured: at
@@ -167,8 +171,8 @@ impl DropCtx<'_> {
                     let polish = w.polish.then_some(w.resolution);
                     match self.pending_of(s, lane, w.contact_tolerance, &w.times, &w.poses, polish)
                     {
-                        Some(p) => w.pending.push(p),
-                        None => w.refly.push(s),
+                        Ok(p) => w.pending.push(p),
+                        Err(rest) => w.refly.push((s, rest)),
                     }
                 } else if w.times.stuck[s] {
                     // The reference flies it from the flight's start.
@@ -297,8 +301,12 @@ impl DropCtx<'_> {
     /// from the flight's start, the attitude and spin from the lanes), the
     /// planes that touch and the law that solves it. With `polish` (the
     /// lanes' resolution, m), the impact is first located at contact from
-    /// the lanes' state, and `None` (the reference flies the flight again)
-    /// if it cannot be or if another plane lies within that resolution.
+    /// the lanes' state. The reference flies the flight again from its
+    /// start where a second plane lies within that resolution (so that
+    /// near-simultaneous impacts are its own: the error is `false`), and
+    /// where the impact cannot be located (a graze, or a rocking contact
+    /// within the lanes' floor, where Newton's method does not converge),
+    /// and then the rest of the walk too (`true`).
     fn pending_of<T: Real>(
         &self,
         s: usize,
@@ -307,7 +315,7 @@ impl DropCtx<'_> {
         times: &Times<T>,
         poses: &Poses<T>,
         polish: Option<f64>,
-    ) -> Option<Pending> {
+    ) -> Result<Pending, bool> {
         let t = times.time[s].to_f64();
         let m0 = &lane.walk.motion;
         let gravity = self.flight.gravity;
@@ -317,13 +325,14 @@ impl DropCtx<'_> {
         let (t, motion) = match polish {
             Some(resolution) => {
                 let (f, body) = (&self.flight, self.scene.body());
-                let (t0, wn) = (t, omega.length());
-                let at = |t: f64| {
-                    let dt = t - t0;
-                    (wn * dt.abs() <= MAX_TURN).then(|| short_turn(body, rotation, omega, dt))
-                };
+                let carried = Carried::new(t, rotation, omega, TURN_STEP, MAX_TURN);
+                let at = |t: f64| carried.at(body, t);
                 let tol = (f.toi_tolerance, resolution);
-                let (t, m, _) = contact_near(body, m0, &f.planes, gravity, at, t, tol, f.horizon)?;
+                let Some((t, m, _)) =
+                    contact_near(body, m0, &f.planes, gravity, at, t, tol, f.horizon)
+                else {
+                    return Err(true);
+                };
                 let near = f.planes.iter().filter(|p| {
                     ContactGeometry::new(body, m.rotation, m.centre, p)
                         .distance
@@ -331,7 +340,7 @@ impl DropCtx<'_> {
                         < resolution
                 });
                 if near.count() > 1 {
-                    return None;
+                    return Err(false);
                 }
                 (t, m)
             }
@@ -361,7 +370,7 @@ impl DropCtx<'_> {
             Law::Stronge if several => (Law::Newton, true),
             law => (law, false),
         };
-        Some(Pending {
+        Ok(Pending {
             lane: s,
             law,
             coupled_fallback,
@@ -419,9 +428,9 @@ impl DropCtx<'_> {
             }
         }
         pending.clear();
-        for s in refly.drain(..) {
+        for (s, rest) in refly.drain(..) {
             let lane = lanes[s].as_mut().expect("live lane");
-            lane.by_reference = true;
+            lane.by_reference |= rest;
             let log = &mut logs[lane.item];
             log.reference_flights += 1;
             let law = self.scene.laws()[lane.law];
