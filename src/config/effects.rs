@@ -28,6 +28,8 @@ pub struct Effects {
     /// Impacts followed per sample.
     pub bounces: u32,
     pub energy_floor: f64,
+    /// Walks whose bounces on one plane accumulate end as settled on it.
+    pub settle: bool,
     pub flight_step: f64,
     pub toi_tolerance: f64,
     pub horizon: f64,
@@ -222,10 +224,10 @@ impl Effects {
             None if flight => 9.81,
             None => 0.0,
         };
-        if !flight && (e.gravity.is_some() || e.bounces.is_some()) {
+        if !flight && (e.gravity.is_some() || e.bounces.is_some() || e.settle.is_some()) {
             return Err(bad(
                 &["effects"],
-                "gravity and bounces need flight (placement.drop)",
+                "gravity, bounces and settle need flight (placement.drop)",
             ));
         }
         let bounces = e.bounces.unwrap_or(1);
@@ -311,6 +313,7 @@ impl Effects {
             gravity,
             bounces,
             energy_floor,
+            settle: e.settle.unwrap_or(true),
             flight_step,
             toi_tolerance,
             horizon,

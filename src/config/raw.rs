@@ -203,6 +203,9 @@ pub struct RawEffects {
     /// this fraction of the kinetic energy at the first impact (default
     /// 1e-4).
     pub energy_floor: Option<f64>,
+    /// End a walk whose bounces on one plane accumulate (a Zeno sequence)
+    /// as settled on it (default true).
+    pub settle: Option<bool>,
     /// Torque-free rotation in flight: "exact" (default: regular
     /// precession for a = b, the elliptic solution otherwise) or "rk4".
     pub flight_rotation: Option<String>,

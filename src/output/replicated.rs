@@ -120,6 +120,7 @@ impl Summary {
                     ("bounce_limit", e.bounce_limit),
                     ("unsolved", e.unsolved),
                     ("stalled", e.stalled),
+                    ("settled", e.settled),
                 ]
                 .into_iter()
                 .map(|(k, v)| (k.to_string(), v))

@@ -14,6 +14,7 @@ pub use super::stat_summary::{Interval, StatSummary};
 
 impl FromNull for StatSummary {}
 impl FromNull for GroupSummary {}
+impl FromNull for EndingSummary {}
 impl FromNull for LawSummary {}
 impl FromNull for PairSummary {}
 impl FromNull for DropSummary {}
@@ -198,6 +199,23 @@ pub struct Endings {
     /// that free flight cannot follow).
     #[serde(deserialize_with = "nan_if_null")]
     pub stalled: f64,
+    /// The bounces on one plane accumulated (a Zeno sequence): ended at
+    /// their accumulation time, in contact with it.
+    #[serde(default, deserialize_with = "nan_if_null")]
+    pub settled: f64,
+}
+
+/// The walks that ended one way: their share of the samples, the body
+/// axis closest to vertical at the end (fractions of these walks), the
+/// kinetic energy left after their last impact (J) and the time since
+/// release at the end (s; a settled walk's accumulation time).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct EndingSummary {
+    #[serde(deserialize_with = "nan_if_null")]
+    pub share: f64,
+    pub axis_up: AxisUp,
+    pub energy_left: StatSummary,
+    pub time: StatSummary,
 }
 
 /// Which body axis ended closest to vertical, as fractions of the samples.
@@ -270,8 +288,15 @@ pub struct DropSummary {
     pub endings: Endings,
     /// Their 95 % intervals `[low, high]`, by ending.
     pub endings_ci95: Named<Interval>,
-    /// Which body axis ended nearest vertical.
+    /// Which body axis ended nearest vertical, over every walk (however it
+    /// ended: see `by_ending` for the walks at rest).
     pub final_axis_up: AxisUp,
+    /// Per ending (`flew_away`, …, `settled`) that some walk had.
+    #[serde(default)]
+    pub by_ending: Named<EndingSummary>,
+    /// Settled walks by plane, as fractions of the samples.
+    #[serde(default)]
+    pub settled_on: Named<f64>,
     /// The first impacts a sequence covers.
     pub sequence_impacts: usize,
     /// Most frequent first.
@@ -415,6 +440,7 @@ pub fn drop_summary(a: &DropAcc, names: &[String], resolved_from: f64) -> DropSu
             ("bounce_limit", Ending::BounceLimit),
             ("unsolved", Ending::Unsolved),
             ("stalled", Ending::Stalled),
+            ("settled", Ending::Settled),
         ]
         .into_iter()
         .map(|(name, e)| {
@@ -425,7 +451,39 @@ pub fn drop_summary(a: &DropAcc, names: &[String], resolved_from: f64) -> DropSu
         })
         .collect(),
     );
-    let up = |k: usize| a.final_axis_up[k] as f64 / n;
+    let axes = |up: [u64; 3], of: u64| {
+        let f = |k: usize| up[k] as f64 / of.max(1) as f64;
+        AxisUp {
+            a: f(0),
+            b: f(1),
+            c: f(2),
+        }
+    };
+    let by_ending = Named(
+        Ending::ALL
+            .iter()
+            .zip(&a.by_ending)
+            .zip(&a.endings)
+            .filter(|(_, &c)| c > 0)
+            .map(|((e, by), &c)| {
+                let summary = EndingSummary {
+                    share: c as f64 / n,
+                    axis_up: axes(by.axis_up, c),
+                    energy_left: StatSummary::from_moments(&by.energy_left),
+                    time: StatSummary::from_moments(&by.time),
+                };
+                (e.name().to_string(), summary)
+            })
+            .collect(),
+    );
+    let settled_on = Named(
+        names
+            .iter()
+            .zip(&a.settled_on)
+            .filter(|(_, &c)| c > 0)
+            .map(|(p, &c)| (p.clone(), c as f64 / n))
+            .collect(),
+    );
     DropSummary {
         samples: a.samples,
         impacts_per_sample: Named(
@@ -441,13 +499,12 @@ pub fn drop_summary(a: &DropAcc, names: &[String], resolved_from: f64) -> DropSu
             bounce_limit: ended(Ending::BounceLimit),
             unsolved: ended(Ending::Unsolved),
             stalled: ended(Ending::Stalled),
+            settled: ended(Ending::Settled),
         },
         endings_ci95,
-        final_axis_up: AxisUp {
-            a: up(0),
-            b: up(1),
-            c: up(2),
-        },
+        final_axis_up: axes(a.final_axis_up(), a.samples),
+        by_ending,
+        settled_on,
         simultaneity_resolved_from: resolved_from,
         sequence_impacts: a.sequence_impacts(),
         sequences: a

@@ -222,21 +222,44 @@ fn share(p: f64, ci: &Interval) -> String {
 /// The bounce table of one law's [`drop_summary`].
 fn drop_text(s: &mut String, d: &DropSummary) {
     use std::fmt::Write;
-    let (e, up) = (&d.endings, &d.final_axis_up);
+    let e = &d.endings;
     let ended = |name: &str, p: f64| match d.endings_ci95.get(name) {
         Some(ci) => share(p, ci),
         None => format!("{p:.4}"),
     };
     let _ = writeln!(
         s,
-        "  ended: flew away {}, came to rest {}, bounce limit {}, unsolved {}, stalled {}; axis closest to vertical at the end: a {:.4}, b {:.4}, c {:.4}",
+        "  ended: flew away {}, came to rest {}, settled {}, bounce limit {}, unsolved {}, stalled {}",
         ended("flew_away", e.flew_away),
         ended("came_to_rest", e.came_to_rest),
+        ended("settled", e.settled),
         ended("bounce_limit", e.bounce_limit),
         ended("unsolved", e.unsolved),
         ended("stalled", e.stalled),
-        up.a, up.b, up.c
     );
+    if !d.settled_on.0.is_empty() {
+        let on: Vec<String> = d
+            .settled_on
+            .iter()
+            .map(|(p, f)| format!("{p} {f:.4}"))
+            .collect();
+        let _ = writeln!(s, "  settled on: {}", on.join(", "));
+    }
+    // A pose is a resting one only for the walks that settled or came to
+    // rest: each ending's own.
+    for (name, by) in d.by_ending.iter() {
+        let up = &by.axis_up;
+        let _ = writeln!(
+            s,
+            "  {:<13} axis up a {:.4}, b {:.4}, c {:.4}; energy left {:.4e} J; at {:.4} s",
+            format!("{name}:"),
+            up.a,
+            up.b,
+            up.c,
+            by.energy_left.mean,
+            by.time.mean
+        );
+    }
     let _ = writeln!(
         s,
         "  by the f64 reference where lanes left them: {} flights, {} impacts",

@@ -45,15 +45,22 @@ pub enum Ending {
     /// Repeated touches without approach (a resting or rolling contact that
     /// free flight cannot follow).
     Stalled,
+    /// The bounces on one plane accumulated (a Zeno sequence: approach
+    /// speeds falling geometrically below a small share of the walk's
+    /// speed scale), and the walk ends at their accumulation time, in
+    /// contact with that plane. It may still slide and spin: its energy
+    /// left says how much.
+    Settled,
 }
 
 impl Ending {
-    pub const ALL: [Ending; 5] = [
+    pub const ALL: [Ending; 6] = [
         Ending::FlewAway,
         Ending::CameToRest,
         Ending::BounceLimit,
         Ending::Unsolved,
         Ending::Stalled,
+        Ending::Settled,
     ];
 
     pub fn name(self) -> &'static str {
@@ -63,8 +70,23 @@ impl Ending {
             Ending::BounceLimit => "bounce_limit",
             Ending::Unsolved => "unsolved",
             Ending::Stalled => "stalled",
+            Ending::Settled => "settled",
         }
     }
+}
+
+/// How the walks that ended one way ended: the body axis closest to
+/// vertical, the kinetic energy left and the time since release.
+#[derive(Debug, Clone, Default)]
+pub struct EndingAcc {
+    /// Walks by the body axis (a, b, c) closest to vertical at the end.
+    pub axis_up: [u64; 3],
+    /// Kinetic energy after the walk's last impact (J; the release's if it
+    /// had none).
+    pub energy_left: Moments,
+    /// Time since release at the end (s): the accumulation time of a
+    /// settled walk, else the last impact's (0 if none).
+    pub time: Moments,
 }
 
 /// Statistics of the k-th impact of every sample that reached it.
@@ -93,9 +115,12 @@ pub struct DropAcc {
     /// Samples by number of impacts (index 0..=bounces).
     pub impacts: Vec<u64>,
     /// Samples by [`Ending`], in [`Ending::ALL`] order.
-    pub endings: [u64; 5],
-    /// Body axis (a, b, c) closest to vertical when the bounces stop.
-    pub final_axis_up: [u64; 3],
+    pub endings: [u64; 6],
+    /// By [`Ending`], in [`Ending::ALL`] order: the axis up, energy left
+    /// and time at the end.
+    pub by_ending: [EndingAcc; 6],
+    /// Settled walks by the plane they settled on.
+    pub settled_on: Vec<u64>,
     /// Samples by the sets of planes hit at their first
     /// [`DropAcc::sequence_impacts`] impacts ([`DropAcc::sequence_cell`]).
     pub sequences: Vec<u64>,
@@ -118,8 +143,9 @@ impl DropAcc {
                 })
                 .collect(),
             impacts: vec![0; bounces + 1],
-            endings: [0; 5],
-            final_axis_up: [0; 3],
+            endings: [0; 6],
+            by_ending: Default::default(),
+            settled_on: vec![0; planes],
             sequences: Vec::new(),
             reference_flights: 0,
             reference_impacts: 0,
@@ -127,6 +153,13 @@ impl DropAcc {
         };
         acc.sequences = vec![0; (1usize << planes).pow(acc.sequence_impacts() as u32)];
         acc
+    }
+
+    /// Walks by the body axis (a, b, c) closest to vertical at the end,
+    /// however they ended (of a walk that did not settle or come to rest,
+    /// not a resting attitude).
+    pub fn final_axis_up(&self) -> [u64; 3] {
+        std::array::from_fn(|k| self.by_ending.iter().map(|e| e.axis_up[k]).sum())
     }
 
     /// Impacts a sequence covers: up to [`SEQUENCE_IMPACTS`], fewer when
@@ -197,11 +230,19 @@ impl DropAcc {
         for (e, c) in Ending::ALL.iter().zip(self.endings.iter_mut()) {
             f(&|| format!("{}.{}", prefix(), e.name()), Slot::Count(c));
         }
-        for (k, c) in self.final_axis_up.iter_mut().enumerate() {
+        for (e, by) in Ending::ALL.iter().zip(self.by_ending.iter_mut()) {
+            let at = || format!("{}.{}", prefix(), e.name());
+            for (k, c) in by.axis_up.iter_mut().enumerate() {
+                f(&|| format!("{}.axis_up.{k}", at()), Slot::Count(c));
+            }
             f(
-                &|| format!("{}.final_axis_up.{k}", prefix()),
-                Slot::Count(c),
+                &|| format!("{}.energy_left", at()),
+                Slot::Moments(&mut by.energy_left),
             );
+            f(&|| format!("{}.time", at()), Slot::Moments(&mut by.time));
+        }
+        for (k, c) in self.settled_on.iter_mut().enumerate() {
+            f(&|| format!("{}.settled_on.{k}", prefix()), Slot::Count(c));
         }
         for (k, c) in self.sequences.iter_mut().enumerate() {
             f(&|| format!("{}.sequences.{k}", prefix()), Slot::Count(c));

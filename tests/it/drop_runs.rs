@@ -384,7 +384,9 @@ fn agree(old: &serde_json::Value, new: &serde_json::Value, path: &str) -> (usize
 /// same (same draws), and the exact rotation differs from that RK4 by its
 /// error, which the later bounces of a rattling body amplify: every mean
 /// agrees within a tenth of its Monte Carlo ci95 (see [`agree`]). The dice
-/// drop of 0.4.0 had no friction: `drop_dice_frictionless` is it now.
+/// drop of 0.4.0 had no friction: `drop_dice_frictionless` is it now. That
+/// runner followed every walk to the bounce limit: here too
+/// (`settle = false`).
 #[test]
 fn drop_statistics_agree_with_the_0_4_0_runner() {
     for (frozen, name) in [
@@ -394,8 +396,10 @@ fn drop_statistics_agree_with_the_0_4_0_runner() {
         let path = repo(&format!("tests/frozen/drops-0.4.0/{frozen}.json"));
         let old: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-        let s = load_scene(
-            &repo(&format!("configs/{name}.toml")),
+        let s = support::edited_scene(
+            name,
+            &[("[effects]\n", "[effects]\nsettle = false\n")],
+            &format!("drops-0.4.0-{name}"),
             &Overrides {
                 samples: Some(20_000),
                 ..Default::default()
@@ -403,6 +407,7 @@ fn drop_statistics_agree_with_the_0_4_0_runner() {
         )
         .unwrap();
         assert_eq!(s.effects().flight_rotation, "elliptic");
+        assert!(!s.effects().settle);
         let summary = serde_json::to_value(Summary::new(&s, &run_drop(&s, 2))).unwrap();
         let (mut compared, mut worst) = (0, 0f64);
         for (law, want) in old["laws"].as_object().unwrap() {
@@ -798,7 +803,12 @@ fn f32_and_f64_drops_agree_within_monte_carlo_error() {
                 (*y, n),
             );
         }
-        for (i, (x, y)) in da.final_axis_up.iter().zip(&db.final_axis_up).enumerate() {
+        for (i, (x, y)) in da
+            .final_axis_up()
+            .iter()
+            .zip(&db.final_axis_up())
+            .enumerate()
+        {
             counts(format!("axis {i} up"), (*x, n), (*y, n));
         }
         for (c, (x, y)) in da.sequences.iter().zip(&db.sequences).enumerate() {
@@ -809,4 +819,50 @@ fn f32_and_f64_drops_agree_within_monte_carlo_error() {
     }
     let compared = compared.get();
     assert!(compared > 500, "{compared} statistics compared");
+}
+
+/// A sphere dropped on a floor bounces a Zeno sequence: approach speeds
+/// eᵏu₀ and intervals 2eᵏu₀/g that add up to a finite time,
+/// √(2h/g) + 2eu₀/(g(1 − e)). Each walk settles on the floor at that time
+/// (not at the bounce limit, which is far), with the energy left by its
+/// last bounce, its bounces ending once they approach slower than
+/// SETTLE_FRACTION (1e-2) of the first impact's speed: after 5 in a row
+/// there, the 26th for e = 0.8.
+#[test]
+fn a_bouncing_sphere_settles_at_its_accumulation_time() {
+    let (e, h, g) = (0.8f64, 1.0f64, 9.81f64);
+    let s = scene_text(&sphere_drop(e, h, 0.0, 200), "settle").unwrap();
+    let run = run_drop(&s, 2);
+    let a = &run.acc.drops[0];
+    assert_eq!(a.endings[Ending::Settled as usize], 64, "{:?}", a.endings);
+    assert_eq!(a.settled_on, vec![64]);
+    let u0 = (2.0 * g * h).sqrt();
+    let want = u0 / g + 2.0 * e * u0 / (g * (1.0 - e));
+    let by = &a.by_ending[Ending::Settled as usize];
+    assert!(
+        (by.time.mean() - want).abs() < 1e-9,
+        "settled at {} s, closed form {want} s",
+        by.time.mean()
+    );
+    // The first bounce below 1e-2 u₀ is the k-th, e^(k−1) < 1e-2, and the
+    // walk settles four bounces later.
+    let k = (1e-2f64.ln() / e.ln()).ceil() as usize + 1;
+    assert_eq!(
+        a.impacts[k + 4],
+        64,
+        "impacts per sample {:?}",
+        a.impacts
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c > 0)
+            .collect::<Vec<_>>()
+    );
+    // Left: the last bounce's rebound, ½ m (e·u)², u = e^(k+3) u₀.
+    let u = e.powi((k + 3) as i32) * u0;
+    let left = 0.5 * (e * u).powi(2);
+    assert!(
+        (by.energy_left.mean() - left).abs() < 1e-9 * left.max(1e-12) + 1e-15,
+        "energy left {} J, want {left} J",
+        by.energy_left.mean()
+    );
 }

@@ -100,7 +100,7 @@ fn drop_line(key: &str, d: &DropAcc) -> String {
         d.reference_impacts,
         d.impacts,
         d.endings,
-        d.final_axis_up,
+        d.final_axis_up(),
         sparse(&d.sequences)
     );
     for (k, b) in d.bounces.iter().enumerate() {

@@ -22,7 +22,7 @@ use crate::config::Scene;
 use crate::kernel::{LawOut, Strike};
 use crate::lanes::dispatch::BLOCK;
 use crate::output::samples::SampleRows;
-use crate::physics::{Law, Motion, Rotation};
+use crate::physics::{kinetic_energy, Law, Motion, Rotation};
 use crate::stats::accumulators::RunAcc;
 use crate::stats::block::{block_stats, record_friction, Before, Scratch};
 use crate::stats::clusters::Recorder;
@@ -170,7 +170,7 @@ impl DropCtx<'_> {
         for (k, log) in logs.iter_mut().enumerate() {
             let (i, law) = (first + (k / laws.len()) as u64, laws[k % laws.len()]);
             log.clear();
-            let mut walk = Walk::new(start_of(&self.start, &self.sampler, i));
+            let mut walk = self.walk_of(i);
             let ending = loop {
                 if let Some(e) = walk.fly(self.scene.effects().bounces as usize) {
                     break e;
@@ -181,6 +181,13 @@ impl DropCtx<'_> {
             };
             walk.finish(ending, log);
         }
+    }
+
+    /// Sample `i`'s walk, at its release.
+    pub(super) fn walk_of(&self, i: u64) -> Walk {
+        let start = start_of(&self.start, &self.sampler, i);
+        let energy = kinetic_energy(self.scene.body(), start.velocity, start.omega);
+        Walk::new(start, energy, self.scene.effects().settle)
     }
 
     /// One flight of `walk` and its impact by the f64 reference: the

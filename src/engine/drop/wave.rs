@@ -42,9 +42,9 @@ use crate::physics::{contact_near, Carried, ContactGeometry, Law, Motion, Plane,
 use crate::stats::drops::Ending;
 
 use super::ctx::DropCtx;
-use super::flight::{start_of, Flight};
+use super::flight::Flight;
 use super::impact::{Kernel, Lane, Moves, Pending};
-use super::walk::{Log, Walk};
+use super::walk::Log;
 
 /// Search steps between harvests of the done lanes.
 const STEPS: u32 = 4;
@@ -141,11 +141,10 @@ impl DropCtx<'_> {
                 next += 1;
                 logs[item].clear();
                 let i = first + (item / laws) as u64;
-                let start = start_of(&self.start, &self.sampler, i);
                 Lane {
                     item,
                     law: item % laws,
-                    walk: Walk::new(start),
+                    walk: self.walk_of(i),
                     by_reference: false,
                 }
             })
