@@ -13,16 +13,18 @@
 //! closed-form in lanes (an axisymmetric body, a steady or near-separatrix
 //! spin, RK4 asked for), searches that spend their step budget, impacts
 //! the kernel flags (its own fallback rules), that touch more than three
-//! planes or penetrate one, and in f32 a walk from the first impact that
-//! cannot be located at contact in f64 on (a touch without approach within
+//! planes or penetrate one, and in f32 the flights of impacts with a second
+//! plane within what the lanes resolve, and a walk from the first impact
+//! that cannot be located at contact on (a touch without approach within
 //! the lanes' floor, a graze: the flight flown again from its start,
 //! [`Wave`]'s `polish`).
 //!
 //! f32 lanes stop their search up to 256 ulp of the body short of contact;
-//! each impact is then located at contact in f64 by Newton's method on the
-//! signed distance, on the flight's f64 motion (the set-up's constants), so
+//! each impact is then located at contact in f64 from the lanes' state
+//! (Newton's method on the signed distance, safeguarded by bisection, with
+//! the attitude carried from the lanes' pose by second-order turns), so
 //! that the state at the impact and the other planes' distances are those
-//! at contact, as in f64.
+//! at contact, to what the lanes' attitude resolves.
 //!
 //! Which lane a walk lands in never changes its result: its flights and
 //! impacts depend only on its own state, and it is recorded in its own log
@@ -90,7 +92,7 @@ pub(crate) struct Wave<T, const N: usize> {
     polish: bool,
     /// How far off the lanes' attitude can put a plane's distance (m):
     /// 64 ulp of the type at the body's largest semi-axis (measured: at
-    /// most 14 ulp over drop_corner's and drop_dice's f32 impacts).
+    /// most 16 ulp over drop_corner's and drop_dice's f32 impacts).
     resolution: f64,
 }
 
