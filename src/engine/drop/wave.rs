@@ -40,7 +40,7 @@ use crate::kernel::flight::setup::{setup, Setup, SetupConsts, SetupIn, SetupWork
 use crate::kernel::flight::{advance, FlightLanes, Poses, Times};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
-use crate::physics::{contact_near, Carried, ContactGeometry, Law, Motion, Plane, Rotation};
+use crate::physics::{contact_near, Carried, Law, Motion, Plane, Rotation};
 use crate::stats::drops::Ending;
 
 use super::ctx::DropCtx;
@@ -334,15 +334,6 @@ impl DropCtx<'_> {
                 else {
                     return Err(true);
                 };
-                let near = f.planes.iter().filter(|p| {
-                    ContactGeometry::new(body, m.rotation, m.centre, p)
-                        .distance
-                        .abs()
-                        < resolution
-                });
-                if near.count() > 1 {
-                    return Err(false);
-                }
                 (t, m)
             }
             None => {
@@ -356,14 +347,20 @@ impl DropCtx<'_> {
             }
         };
         let body = self.scene.body();
-        let mut mask = 0;
+        let (mut mask, mut near) = (0, 0);
         let mut penetrating = false;
         let semi = body.semi_axes();
+        // Planes within the lanes' resolution (none without `polish`).
+        let resolution = polish.unwrap_or(0.0);
         for (i, p) in self.flight.planes.iter().enumerate() {
             let u = motion.rotation.transpose() * p.normal();
             let d = p.signed_distance(motion.centre) - (semi * u).length();
             mask |= ((d.abs() <= contact_tolerance) as usize) << i;
+            near += (d.abs() < resolution) as u32;
             penetrating |= d < -contact_tolerance;
+        }
+        if near > 1 {
+            return Err(false);
         }
         let law = self.scene.laws()[lane.law];
         let several = mask.count_ones() > 1;
