@@ -7,14 +7,15 @@
 
 use crate::kernel::friction::state::{Frame, Sweep, MOVED_SHIFT, STICK_SHIFT, UNSURE};
 use crate::kernel::geometry::dot3;
-/// Post-impact velocities, normal velocities, energy, tangential impulses
-/// and sliding speeds of a frictional block (`limit`: the impulses are
-/// Newton's converged limit); lanes the solve could not vouch for are
-/// flagged [`Status::NEEDS_REFERENCE`].
 use crate::kernel::{Consts, Geometry, LawOut, Status};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::{select, Real};
 use crate::sampler::Inputs;
+
+/// Post-impact velocities, normal velocities, energy, tangential impulses
+/// and sliding speeds of a frictional block (`limit`: the impulses are
+/// Newton's converged limit); lanes the solve could not vouch for are
+/// flagged [`Status::NEEDS_REFERENCE`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn friction_post<T: Real, const N: usize>(

@@ -10,6 +10,10 @@ use crate::kernel::friction::state::{
     bit, Frame, FrictionConsts, Solve, Sweep, GRID, MOVED_SHIFT, STICK_SHIFT, UNSURE,
 };
 use crate::kernel::geometry::dot3;
+use crate::kernel::Consts;
+use crate::lanes::dispatch::BLOCK;
+use crate::lanes::{select, Real};
+
 /// The slide case's trigonometric polynomials (friction.md, case 3), with
 /// `ŝ = (cos θ, sin θ)` in the tangent basis and `v(θ) = D(θ) c_t −
 /// a (w_t − μ W_tt ŝ)`, `D(θ) = W_nn − μ w_t·ŝ`:
@@ -20,8 +24,6 @@ use crate::kernel::geometry::dot3;
 ///
 /// (Expand the products with cos²θ = (1 + cos 2θ)/2, sin θ cos θ =
 /// sin 2θ / 2 and sin²θ = (1 − cos 2θ)/2.)
-use crate::kernel::Consts;
-use crate::lanes::{select, Real};
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slide<T> {
     a0: T,
@@ -135,11 +137,16 @@ pub(super) fn w_of<T: Real, const N: usize>(fr: &Frame<T, N>, i: usize, s: usize
     std::array::from_fn(|m| fr.w[i][m][s])
 }
 
-/// Set-up of a visit of contact i: the free velocity (with the other
-/// contacts' impulses when `COUPLED`), `a` with Newton's bias
-/// `b = k min(c⁻_n, 0)`, the stick case (`W P = (−a, −c_t)` by the
-/// symmetric cofactors), and the slide polynomials with their bounds and
-/// margins.
+/// Set-up of a visit of contact i, in passes over the lanes: the free
+/// velocity (with the other contacts' impulses when `COUPLED`) and `a`
+/// with Newton's bias `b = k min(c⁻_n, 0)`; the stick case (`W P = (−a,
+/// −c_t)` by the symmetric cofactors); the slide polynomials with their
+/// margins and the certified search's start; no roots yet.
+///
+/// Each pass takes the arrays it reads and writes as separate references:
+/// inlined, they tell the loop vectoriser that no two overlap, so that it
+/// needs no run-time checks (one pass over all of them needed more than it
+/// allows, and stayed scalar).
 #[inline(always)]
 pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
     c: &Consts<T, N>,
@@ -154,12 +161,61 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
     let Sweep {
         p, dv, dw, solve, ..
     } = sw;
-    let k = &mut *solve;
-    for s in 0..lanes {
-        let w = w_of(fr, i, s);
-        let mut cf = [fr.c0[i][0][s], fr.c0[i][1][s], fr.c0[i][2][s]];
+    let Solve {
+        a,
+        ct,
+        stick,
+        stick_ok,
+        stick_no,
+        coef,
+        m_f,
+        m_d,
+        start,
+        ..
+    } = solve;
+    let w = &fr.w[i];
+    free_velocity::<T, COUPLED>(
+        dirs,
+        c.k[i],
+        w,
+        &fr.c0[i],
+        &fr.lever[i],
+        &p[i],
+        dv,
+        dw,
+        a,
+        ct,
+        lanes,
+    );
+    stick_case(fc, mu, w, a, ct, stick, stick_ok, stick_no, lanes);
+    slide_case(fc, mu, w, a, ct, coef, m_f, m_d, start, lanes);
+    restart(solve, lanes);
+}
+
+/// `a` and the free tangential velocity `ct` of contact i with directions
+/// `dirs` and bias coefficient `k`: its pre-impact velocity `c0`, and when
+/// `COUPLED` the other contacts' impulses (every impulse's change of v
+/// and ω so far, less this contact's own, `W_ii P_i`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn free_velocity<T: Real, const COUPLED: bool>(
+    dirs: [[T; 3]; 3],
+    k: T,
+    w: &[[T; BLOCK]; 6],
+    c0: &[[T; BLOCK]; 3],
+    lever: &[[[T; BLOCK]; 3]; 3],
+    p: &[[T; BLOCK]; 3],
+    dv: &[[T; BLOCK]; 3],
+    dw: &[[T; BLOCK]; 3],
+    a: &mut [T; BLOCK],
+    ct: &mut [[T; BLOCK]; 2],
+    lanes: usize,
+) {
+    for s in 0..lanes.min(BLOCK) {
+        let mut cf = [c0[0][s], c0[1][s], c0[2][s]];
         if COUPLED {
-            let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
+            let w: [T; 6] = std::array::from_fn(|m| w[m][s]);
+            let old = [p[0][s], p[1][s], p[2][s]];
             let dv = [dv[0][s], dv[1][s], dv[2][s]];
             let dw = [dw[0][s], dw[1][s], dw[2][s]];
             // W_ii P_i, to take this contact's own impulse out.
@@ -169,17 +225,35 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
                 dot3([w[2], w[4], w[5]], old),
             ];
             for d in 0..3 {
-                let lever = [
-                    fr.lever[i][d][0][s],
-                    fr.lever[i][d][1][s],
-                    fr.lever[i][d][2][s],
-                ];
+                let lever = [lever[d][0][s], lever[d][1][s], lever[d][2][s]];
                 cf[d] = cf[d] + dot3(dirs[d], dv) + dot3(lever, dw) - own[d];
             }
         }
-        let a = c.k[i].mul_add(fr.c0[i][0][s].min(T::ZERO), cf[0]);
-        let [wnn, w1, w2, pp, q, r] = w;
-        let [_, c1, c2] = cf;
+        a[s] = k.mul_add(c0[0][s].min(T::ZERO), cf[0]);
+        ct[0][s] = cf[1];
+        ct[1][s] = cf[2];
+    }
+}
+
+/// The stick case of every lane: `W P = (−a, −c_t)` by the symmetric
+/// cofactors, valid when P_n > 0 and |P_t| ≤ μ P_n, each clear of the
+/// band, or clearly not.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn stick_case<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    w: &[[T; BLOCK]; 6],
+    a: &[T; BLOCK],
+    ct: &[[T; BLOCK]; 2],
+    stick: &mut [[T; BLOCK]; 3],
+    stick_ok: &mut [bool; BLOCK],
+    stick_no: &mut [bool; BLOCK],
+    lanes: usize,
+) {
+    for s in 0..lanes.min(BLOCK) {
+        let [wnn, w1, w2, pp, q, r] = std::array::from_fn(|m| w[m][s]);
+        let [c1, c2] = [ct[0][s], ct[1][s]];
         let k00 = pp.mul_add(r, -(q * q));
         let k01 = w2.mul_add(q, -(w1 * r));
         let k02 = w1.mul_add(q, -(pp * w2));
@@ -187,40 +261,62 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
         let k12 = w1.mul_add(w2, -(wnn * q));
         let k22 = wnn.mul_add(pp, -(w1 * w1));
         let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
-        let rhs = [-a, -c1, -c2];
-        let stick = [
+        let rhs = [-a[s], -c1, -c2];
+        let p = [
             dot3([k00, k01, k02], rhs) * inv,
             dot3([k01, k11, k12], rhs) * inv,
             dot3([k02, k12, k22], rhs) * inv,
         ];
-        let f_stick = stick[1].mul_add(stick[1], stick[2] * stick[2]).sqrt();
-        let limit = mu * stick[0];
-        k.stick_ok[s] = (stick[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
-        k.stick_no[s] = f_stick >= limit * (T::ONE + fc.stick_band);
-        let sl = Slide::new(mu, [c1, c2], a, w);
-        let coef = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
+        let f_stick = p[1].mul_add(p[1], p[2] * p[2]).sqrt();
+        let limit = mu * p[0];
+        stick_ok[s] = (p[0] > T::ZERO) & (f_stick <= limit * (T::ONE - fc.stick_band));
+        stick_no[s] = f_stick >= limit * (T::ONE + fc.stick_band);
+        for m in 0..3 {
+            stick[m][s] = p[m];
+        }
+    }
+}
+
+/// The slide polynomials of every lane, the margins within which their
+/// values decide nothing, and the certified search's start direction.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn slide_case<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    w: &[[T; BLOCK]; 6],
+    a: &[T; BLOCK],
+    ct: &[[T; BLOCK]; 2],
+    coef: &mut [[T; BLOCK]; 6],
+    m_f: &mut [T; BLOCK],
+    m_d: &mut [T; BLOCK],
+    start: &mut [[T; BLOCK]; 2],
+    lanes: usize,
+) {
+    for s in 0..lanes.min(BLOCK) {
+        let w6: [T; 6] = std::array::from_fn(|m| w[m][s]);
+        let [wnn, w1, w2, pp, q, r] = w6;
+        let [c1, c2] = [ct[0][s], ct[1][s]];
+        let a = a[s];
+        let sl = Slide::new(mu, [c1, c2], a, w6);
+        let cf = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
         // Margins: values within rounding (and, in f32, within the inputs'
         // own rounding) of zero decide nothing.
         let (mw1, mw2) = (mu * w1, mu * w2);
         let ld = mw1.mul_add(mw1, mw2 * mw2).sqrt();
         let mag = (wnn + ld) * (c1.abs() + c2.abs())
             + a.abs() * ((w1.abs() + w2.abs()) + mu * (pp.abs() + q.abs() + r.abs()));
-        k.m_f[s] = fc.round * mag;
-        k.m_d[s] = fc.round * (wnn + ld);
-        for m in 0..3 {
-            k.stick[m][s] = stick[m];
-        }
+        m_f[s] = fc.round * mag;
+        m_d[s] = fc.round * (wnn + ld);
         for m in 0..6 {
-            k.coef[m][s] = coef[m];
+            coef[m][s] = cf[m];
         }
-        k.a[s] = a;
-        no_roots_yet(k, s);
         let ratio = -a / wnn;
         let g = [ratio.mul_add(w1, c1), ratio.mul_add(w2, c2)];
         let len = g[0].mul_add(g[0], g[1] * g[1]).sqrt();
         let some = len > T::ZERO;
-        k.start[0][s] = select(some, g[0] / len, T::ONE);
-        k.start[1][s] = select(some, g[1] / len, T::ZERO);
+        start[0][s] = select(some, g[0] / len, T::ONE);
+        start[1][s] = select(some, g[1] / len, T::ZERO);
     }
 }
 
@@ -473,9 +569,10 @@ pub(super) fn root_judge<T: Real, const N: usize>(
     }
 }
 
-/// The end of a visit of contact i: the impulse (take-off, stick, or the
-/// one valid slide root; with μ = 0, `max(−a, 0)/W_nn · n`), its effect on
-/// v and ω, the largest move, and the stick and unsure bits.
+/// The end of a visit of contact i, in two passes over the lanes: the
+/// impulse (take-off, stick, or the one valid slide root; with μ = 0,
+/// `max(−a, 0)/W_nn · n`) with its stick and certainty, then its effect on
+/// v and ω, the largest move, and the sweep's bits.
 #[inline(always)]
 pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: bool>(
     c: &Consts<T, N>,
@@ -485,11 +582,6 @@ pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: 
     lanes: usize,
 ) {
     let fc = &c.fr;
-    let dirs = [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]];
-    let mu = fc.mu[i];
-    let stick_bit = 1u32 << (STICK_SHIFT + i as u32);
-    let own_moved = 1u32 << (MOVED_SHIFT + i as u32);
-    let others_moved = (((1u32 << N) - 1) << MOVED_SHIFT) & !own_moved;
     let Sweep {
         p,
         dv,
@@ -499,64 +591,193 @@ pub(super) fn finish<T: Real, const N: usize, const COUPLED: bool, const ROUGH: 
         solve,
         ..
     } = sw;
-    let k = &*solve;
-    for s in 0..lanes {
-        let a = k.a[s];
-        let w = w_of(fr, i, s);
-        let approaching = a < T::ZERO;
-        let (new, stuck, sure) = if ROUGH {
-            let [cs, sn] = [k.dir[0][s], k.dir[1][s]];
-            let d = (-mu * w[2]).mul_add(sn, (-mu * w[1]).mul_add(cs, w[0]));
-            let lambda = -a / d;
-            let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
-            let (stick_ok, stick_no) = (k.stick_ok[s], k.stick_no[s]);
-            let count = k.count[s];
-            let one_case = (stick_ok & (count == T::ZERO)) | (stick_no & (count == T::ONE));
-            let sure_a = a.abs() > fc.take_off_band * fr.vscale[s];
-            // Take-off decides nothing within rounding of a = 0 on either
-            // side: just below it, a stick impulse need not be small
-            // (Painlevé's impact without collision).
-            let sure = sure_a & (!approaching | (k.grid_ok[s] & k.roots_ok[s] & one_case));
-            let new: [T; 3] = std::array::from_fn(|m| {
-                select(
-                    approaching,
-                    select(stick_ok, k.stick[m][s], slide[m]),
-                    T::ZERO,
-                )
-            });
-            (new, approaching & stick_ok, sure)
-        } else {
-            (
-                [select(approaching, -a / w[0], T::ZERO), T::ZERO, T::ZERO],
-                false,
-                true,
-            )
+    let Solve {
+        a,
+        stick,
+        stick_ok,
+        stick_no,
+        count,
+        dir,
+        grid_ok,
+        roots_ok,
+        new,
+        stuck,
+        sure,
+        ..
+    } = solve;
+    let w = &fr.w[i];
+    if ROUGH {
+        let chosen = Chosen {
+            stick,
+            stick_ok,
+            stick_no,
+            count,
+            dir,
+            grid_ok,
+            roots_ok,
         };
-        let old = [p[i][0][s], p[i][1][s], p[i][2][s]];
-        let dp = [new[0] - old[0], new[1] - old[1], new[2] - old[2]];
+        choose(
+            fc, fc.mu[i], w, &fr.vscale, a, chosen, new, stuck, sure, lanes,
+        );
+    } else {
+        frictionless(w, a, new, stuck, sure, lanes);
+    }
+    let moves = Moves {
+        dirs: [c.normal[i], fc.tangent[i][0], fc.tangent[i][1]],
+        inv_mass: c.inv_mass,
+        inv_inertia: c.inv_inertia,
+        stick_bit: 1u32 << (STICK_SHIFT + i as u32),
+        own_moved: 1u32 << (MOVED_SHIFT + i as u32),
+        all_moved: ((1u32 << N) - 1) << MOVED_SHIFT,
+        coupled: COUPLED,
+    };
+    apply(
+        &moves,
+        &fr.lever[i],
+        new,
+        stuck,
+        sure,
+        &mut p[i],
+        dv,
+        dw,
+        moved,
+        bits,
+        lanes,
+    );
+}
+
+/// What the rough choice reads of the single-contact solve.
+struct Chosen<'a, T> {
+    stick: &'a [[T; BLOCK]; 3],
+    stick_ok: &'a [bool; BLOCK],
+    stick_no: &'a [bool; BLOCK],
+    count: &'a [T; BLOCK],
+    dir: &'a [[T; BLOCK]; 2],
+    grid_ok: &'a [bool; BLOCK],
+    roots_ok: &'a [bool; BLOCK],
+}
+
+/// The rough impulse of every lane: none when leaving, else the stick
+/// impulse when it is valid, or the slide root's; sure when `a` is clear
+/// of zero and, approaching, the search was certified with exactly one
+/// valid case.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn choose<T: Real, const N: usize>(
+    fc: &FrictionConsts<T, N>,
+    mu: T,
+    w: &[[T; BLOCK]; 6],
+    vscale: &[T; BLOCK],
+    a: &[T; BLOCK],
+    chosen: Chosen<'_, T>,
+    new: &mut [[T; BLOCK]; 3],
+    stuck: &mut [bool; BLOCK],
+    sure: &mut [bool; BLOCK],
+    lanes: usize,
+) {
+    let Chosen {
+        stick,
+        stick_ok,
+        stick_no,
+        count,
+        dir,
+        grid_ok,
+        roots_ok,
+    } = chosen;
+    for s in 0..lanes.min(BLOCK) {
+        let a = a[s];
+        let approaching = a < T::ZERO;
+        let [cs, sn] = [dir[0][s], dir[1][s]];
+        let d = (-mu * w[2][s]).mul_add(sn, (-mu * w[1][s]).mul_add(cs, w[0][s]));
+        let lambda = -a / d;
+        let slide = [lambda, -mu * lambda * cs, -mu * lambda * sn];
+        let (ok, no) = (stick_ok[s], stick_no[s]);
+        let one_case = (ok & (count[s] == T::ZERO)) | (no & (count[s] == T::ONE));
+        let sure_a = a.abs() > fc.take_off_band * vscale[s];
+        // Take-off decides nothing within rounding of a = 0 on either
+        // side: just below it, a stick impulse need not be small
+        // (Painlevé's impact without collision).
+        sure[s] = sure_a & (!approaching | (grid_ok[s] & roots_ok[s] & one_case));
+        stuck[s] = approaching & ok;
         for m in 0..3 {
-            let lever = [
-                fr.lever[i][0][m][s],
-                fr.lever[i][1][m][s],
-                fr.lever[i][2][m][s],
-            ];
+            new[m][s] = select(approaching, select(ok, stick[m][s], slide[m]), T::ZERO);
+        }
+    }
+}
+
+/// The frictionless impulse of every lane, `max(−a, 0)/W_nn` along the
+/// normal, which is always sure and never sticks.
+#[inline(always)]
+fn frictionless<T: Real>(
+    w: &[[T; BLOCK]; 6],
+    a: &[T; BLOCK],
+    new: &mut [[T; BLOCK]; 3],
+    stuck: &mut [bool; BLOCK],
+    sure: &mut [bool; BLOCK],
+    lanes: usize,
+) {
+    for s in 0..lanes.min(BLOCK) {
+        new[0][s] = select(a[s] < T::ZERO, -a[s] / w[0][s], T::ZERO);
+        new[1][s] = T::ZERO;
+        new[2][s] = T::ZERO;
+        stuck[s] = false;
+        sure[s] = true;
+    }
+}
+
+/// The constants of [`apply`]: contact i's directions, the body's inverse
+/// mass and inertia, and contact i's bits in the sweep's bits.
+struct Moves<T> {
+    dirs: [[T; 3]; 3],
+    inv_mass: T,
+    inv_inertia: [T; 3],
+    stick_bit: u32,
+    own_moved: u32,
+    all_moved: u32,
+    coupled: bool,
+}
+
+/// Contact i's new impulse in every lane: its change moves v and ω, the
+/// sweep's largest move and the bits (stick, unsure, and the other
+/// contacts' moved bits; a visit that saw the others' impulses, `coupled`,
+/// starts its own afresh).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn apply<T: Real>(
+    k: &Moves<T>,
+    lever: &[[[T; BLOCK]; 3]; 3],
+    new: &[[T; BLOCK]; 3],
+    stuck: &[bool; BLOCK],
+    sure: &[bool; BLOCK],
+    p: &mut [[T; BLOCK]; 3],
+    dv: &mut [[T; BLOCK]; 3],
+    dw: &mut [[T; BLOCK]; 3],
+    moved: &mut [T; BLOCK],
+    bits: &mut [u32; BLOCK],
+    lanes: usize,
+) {
+    let dirs = k.dirs;
+    let others_moved = k.all_moved & !k.own_moved;
+    let fresh = if k.coupled { k.own_moved } else { 0 };
+    for s in 0..lanes.min(BLOCK) {
+        let new = [new[0][s], new[1][s], new[2][s]];
+        let dp = [new[0] - p[0][s], new[1] - p[1][s], new[2] - p[2][s]];
+        for m in 0..3 {
+            let lever = [lever[0][m][s], lever[1][m][s], lever[2][m][s]];
             let lin = dp[2].mul_add(dirs[2][m], dp[1].mul_add(dirs[1][m], dp[0] * dirs[0][m]));
-            dv[m][s] = lin.mul_add(c.inv_mass, dv[m][s]);
+            dv[m][s] = lin.mul_add(k.inv_mass, dv[m][s]);
             let ang = dp[2].mul_add(lever[2], dp[1].mul_add(lever[1], dp[0] * lever[0]));
-            dw[m][s] = ang.mul_add(c.inv_inertia[m], dw[m][s]);
-            p[i][m][s] = new[m];
+            dw[m][s] = ang.mul_add(k.inv_inertia[m], dw[m][s]);
+            p[m][s] = new[m];
         }
         moved[s] = moved[s].max(dot3(dp, dp).sqrt());
         // An active contact's visit moves the others (in exact arithmetic
         // its increment is zero only at the limit), as does any change.
         let nonzero =
             (dp[0] != T::ZERO) | (dp[1] != T::ZERO) | (dp[2] != T::ZERO) | (new[0] != T::ZERO);
-        // A visit that saw the other contacts' impulses (COUPLED) starts
-        // this contact afresh; paper's visits see none of them.
-        let fresh = if COUPLED { own_moved } else { 0 };
-        bits[s] = (bits[s] & !(stick_bit | fresh))
-            | bit(stuck, stick_bit)
-            | bit(!sure, UNSURE)
+        bits[s] = (bits[s] & !(k.stick_bit | fresh))
+            | bit(stuck[s], k.stick_bit)
+            | bit(!sure[s], UNSURE)
             | bit(nonzero, others_moved);
     }
 }

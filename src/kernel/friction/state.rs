@@ -183,8 +183,10 @@ impl<T: Real, const N: usize> Sweep<T, N> {
 /// choice. Cache-line aligned; one per worker.
 #[repr(C, align(64))]
 pub(super) struct Solve<T> {
-    /// `a = c_n + b` of the free contact-point velocity.
+    /// `a = c_n + b` of the free contact-point velocity, and its
+    /// tangential part `c_t` (t₁, t₂).
     pub(super) a: [T; BLOCK],
+    pub(super) ct: [[T; BLOCK]; 2],
     /// The stick case's impulse, and whether it is valid, or clearly not.
     pub(super) stick: [[T; BLOCK]; 3],
     pub(super) stick_ok: [bool; BLOCK],
@@ -214,6 +216,11 @@ pub(super) struct Solve<T> {
     pub(super) count: [T; BLOCK],
     pub(super) dir: [[T; BLOCK]; 2],
     pub(super) roots_ok: [bool; BLOCK],
+    /// The visit's new impulse (n, t₁, t₂), whether it sticks, and whether
+    /// every decision that chose it was clear of its margin.
+    pub(super) new: [[T; BLOCK]; 3],
+    pub(super) stuck: [bool; BLOCK],
+    pub(super) sure: [bool; BLOCK],
     /// cos, sin of the certified search's start: the direction of
     /// `c_t + (−a/W_nn) w_t`, the sliding under the frictionless normal
     /// impulse (friction.md, after B3).
@@ -228,6 +235,7 @@ impl<T: Real> Solve<T> {
         let z = [T::ZERO; BLOCK];
         Self {
             a: z,
+            ct: [z; 2],
             stick: [z; 3],
             stick_ok: [false; BLOCK],
             stick_no: [false; BLOCK],
@@ -245,6 +253,9 @@ impl<T: Real> Solve<T> {
             count: z,
             dir: [z; 2],
             roots_ok: [false; BLOCK],
+            new: [z; 3],
+            stuck: [false; BLOCK],
+            sure: [false; BLOCK],
             start: [z; 2],
             len: BLOCK,
         }

@@ -13,13 +13,14 @@ use crate::kernel::friction::slide::{
     root_judge, root_start, root_step, setup,
 };
 use crate::kernel::friction::state::{Frame, Sweep, GRID, UNSURE};
-/// One visit of contact i in every lane (friction.md's single-contact
-/// solve, or with μ = 0 its closed form).
 use crate::kernel::{Consts, Geometry, LawOut};
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 use crate::physics::Law;
 use crate::sampler::Inputs;
+
+/// One visit of contact i in every lane (friction.md's single-contact
+/// solve, or with μ = 0 its closed form).
 #[inline(always)]
 pub(super) fn visit<T: Real, const N: usize, const COUPLED: bool>(
     c: &Consts<T, N>,
