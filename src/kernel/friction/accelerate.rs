@@ -202,7 +202,7 @@ impl<T: Real, const N: usize> Acceleration<T, N> {
         ct.pscale = f(c.mass) * ct.vscale;
         let p: [DVec3; N] =
             std::array::from_fn(|i| world(i, std::array::from_fn(|d| f(sw.p[i][d][s]))));
-        let x = pattern_newton(&ct, &p, cases, false)?;
+        let x = pattern_newton(&ct, &p, cases, false, c.fr.jump_tol)?;
         let previous: [DVec3; N] =
             std::array::from_fn(|i| world(i, std::array::from_fn(|d| f(self.before[i][d][s]))));
         if !guard_passes(&p, &previous, &x[..N], r) {

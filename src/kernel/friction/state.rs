@@ -4,6 +4,7 @@
 //! lanes still sweeping. The files beside this one hold the passes.
 
 use crate::config::Scene;
+use crate::physics::friction::JUMP_TOL;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
 
@@ -66,6 +67,10 @@ pub struct FrictionConsts<T, const N: usize> {
     pub(super) accelerate: bool,
     /// Sweeps between its checks.
     pub(super) accelerate_period: u32,
+    /// Its Newton point's stop, relative to the impulse scale: the
+    /// reference's in f64 lanes; in f32 lanes, where the point is rounded
+    /// to f32, a hundredth of f32's rounding.
+    pub(super) jump_tol: f64,
 }
 
 impl<T: Real, const N: usize> FrictionConsts<T, N> {
@@ -110,6 +115,7 @@ impl<T: Real, const N: usize> FrictionConsts<T, N> {
             // every 16 (48 as fast, 64 slower); f64 lanes as fast at 8 or
             // 16, 20 % slower at 32.
             accelerate_period: if f32_lanes { 32 } else { 16 },
+            jump_tol: if f32_lanes { 1e-9 } else { JUMP_TOL },
         }
     }
 }

@@ -200,7 +200,7 @@ fn gauss_seidel(
             continue;
         }
         let r = (moved / old_moved).powf(0.25);
-        let Some(x) = pattern_newton(ct, p, &cases[..n], plastic) else {
+        let Some(x) = pattern_newton(ct, p, &cases[..n], plastic, JUMP_TOL) else {
             continue;
         };
         if !guard_passes(p, &previous[..n], &x[..n], r) {
@@ -228,18 +228,25 @@ fn gauss_seidel(
     (solved, converged || sweeps.is_some())
 }
 
+/// The reference's stop for [`pattern_newton`]: a step below f64 rounding
+/// of the impulses.
+pub(crate) const JUMP_TOL: f64 = 1e-14;
+
 /// friction.md's Newton step on a pattern of cases: the impulses of every
 /// contact at once that meet, per contact, take-off `P_i = 0`, stick
 /// `c⁺_i = −b_i n_i`, a normal impulse (μ = 0) `c⁺_n,i = −b_i` with no
 /// tangential part, or slide `c⁺_n,i = −b_i` and `f_i = −μ_i λ_i ŝ_i` with
 /// `ŝ_i = c⁺_t,i/|c⁺_t,i|`; Newton's method from `p`, at most 12
-/// iterations. `None` if a case is unsolved, a slide has no sliding
+/// iterations, until a step is at most `tol` of the impulse scale
+/// ([`JUMP_TOL`] here; a lane type's rounding in the lanes, whose jump
+/// lands in that type). `None` if a case is unsolved, a slide has no sliding
 /// velocity, or the system is singular.
 pub(crate) fn pattern_newton(
     ct: &Contacts,
     p: &[DVec3],
     cases: &[Case],
     plastic: bool,
+    tol: f64,
 ) -> Option<[DVec3; MAX]> {
     let n = p.len();
     let m = 3 * n;
@@ -334,7 +341,7 @@ pub(crate) fn pattern_newton(
         }
         // Below rounding of the impulses: Newton's next step would be
         // noise (the confirming sweep judges the point).
-        if size <= 1e-14 * ct.pscale {
+        if size <= tol * ct.pscale {
             break;
         }
     }

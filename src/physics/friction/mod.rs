@@ -17,7 +17,7 @@ mod roots;
 mod single;
 mod stronge;
 
-pub(crate) use gauss_seidel::{guard_passes, outer, pattern_newton};
+pub(crate) use gauss_seidel::{guard_passes, outer, pattern_newton, JUMP_TOL};
 pub use gauss_seidel::{newton, newton_with, paper, pgs, Contacts, Solved};
 pub use single::{certified, single_contact, single_contact_full, Case, Single};
 pub use stronge::stronge;
