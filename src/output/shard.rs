@@ -42,7 +42,7 @@ use crate::stats::RunResult;
 use crate::stats::Slot;
 
 /// Version of the state files' layout.
-pub const STATE_VERSION: u32 = 5;
+pub const STATE_VERSION: u32 = 6;
 
 /// `shard.json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -307,6 +307,9 @@ pub struct DropSummary {
     pub reference_flights: u64,
     /// Impacts the lanes left to the f64 reference.
     pub reference_impacts: u64,
+    /// What the lanes' time-of-impact searches cost.
+    #[serde(default)]
+    pub lane_search: LaneSearch,
     /// The smallest simultaneity tolerance the run resolves (m): the
     /// distance within which its searches locate a contact (the scene's
     /// `toi_tolerance`). Below it the shares are null.
@@ -520,7 +523,25 @@ pub fn drop_summary(a: &DropAcc, names: &[String], resolved_from: f64) -> DropSu
         bounces,
         reference_flights: a.reference_flights,
         reference_impacts: a.reference_impacts,
+        lane_search: LaneSearch {
+            flights: a.lane_flights,
+            poses_per_flight: (a.lane_flights > 0)
+                .then(|| a.lane_poses as f64 / a.lane_flights as f64),
+            poses_per_sample: a.lane_poses as f64 / n,
+        },
     }
+}
+
+/// The lanes' time-of-impact searches of a drop run: the flights they
+/// searched, and the attitudes (poses) they evaluated per flight and per
+/// sample, counted in each walk's own lane (a block evaluates every lane
+/// at each step, so idle lanes add to its cost).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct LaneSearch {
+    pub flights: u64,
+    /// Null when no flight was searched in lanes.
+    pub poses_per_flight: Option<f64>,
+    pub poses_per_sample: f64,
 }
 
 /// `+`-joined names of the planes in an active-set mask, in scene order;

@@ -265,6 +265,13 @@ fn drop_text(s: &mut String, d: &DropSummary) {
         "  by the f64 reference where lanes left them: {} flights, {} impacts",
         d.reference_flights, d.reference_impacts
     );
+    if let Some(per_flight) = d.lane_search.poses_per_flight {
+        let _ = writeln!(
+            s,
+            "  lanes' searches: {} flights, {per_flight:.1} poses per flight, {:.1} per sample",
+            d.lane_search.flights, d.lane_search.poses_per_sample
+        );
+    }
     let _ = writeln!(
         s,
         "  {:>6} {:>9} {:>21} {:>13} {:>12}  most frequent planes",

@@ -129,6 +129,10 @@ pub struct DropAcc {
     /// kernel flagged, on more than three planes or penetrating one).
     pub reference_flights: u64,
     pub reference_impacts: u64,
+    /// Flights searched in lanes, and the poses their searches evaluated
+    /// (per flight, one per step and one where it stopped).
+    pub lane_flights: u64,
+    pub lane_poses: u64,
     planes: usize,
 }
 
@@ -149,6 +153,8 @@ impl DropAcc {
             sequences: Vec::new(),
             reference_flights: 0,
             reference_impacts: 0,
+            lane_flights: 0,
+            lane_poses: 0,
             planes,
         };
         acc.sequences = vec![0; (1usize << planes).pow(acc.sequence_impacts() as u32)];
@@ -250,6 +256,8 @@ impl DropAcc {
         for (name, c) in [
             ("reference_flights", &mut self.reference_flights),
             ("reference_impacts", &mut self.reference_impacts),
+            ("lane_flights", &mut self.lane_flights),
+            ("lane_poses", &mut self.lane_poses),
         ] {
             f(&|| format!("{}.{name}", prefix()), Slot::Count(c));
         }

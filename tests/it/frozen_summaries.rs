@@ -94,10 +94,12 @@ fn sparse(counts: &[u64]) -> String {
 /// sequence, then per bounce its counts and moments.
 fn drop_line(key: &str, d: &DropAcc) -> String {
     let mut l = format!(
-        "{key} drops: samples={} reference={}/{} impacts={:?} endings={:?} final_axis_up={:?} sequences={}",
+        "{key} drops: samples={} reference={}/{} lane_search={}/{} impacts={:?} endings={:?} final_axis_up={:?} sequences={}",
         d.samples,
         d.reference_flights,
         d.reference_impacts,
+        d.lane_flights,
+        d.lane_poses,
         d.impacts,
         d.endings,
         d.final_axis_up(),

@@ -104,6 +104,10 @@ pub(crate) struct Log {
     /// Flights and impacts the lanes left to the f64 reference.
     pub(crate) reference_flights: u32,
     pub(crate) reference_impacts: u32,
+    /// Flights searched in lanes, and the poses those searches evaluated
+    /// in the walk's own lane (one per step and one where it stopped).
+    pub(crate) lane_flights: u32,
+    pub(crate) lane_poses: u32,
     ending: Ending,
     impacts: usize,
     masks: [usize; SEQUENCE_IMPACTS],
@@ -125,6 +129,8 @@ impl Log {
             first: First::None,
             reference_flights: 0,
             reference_impacts: 0,
+            lane_flights: 0,
+            lane_poses: 0,
             ending: Ending::BounceLimit,
             impacts: 0,
             masks: [0; SEQUENCE_IMPACTS],
@@ -142,6 +148,8 @@ impl Log {
         self.first = First::None;
         self.reference_flights = 0;
         self.reference_impacts = 0;
+        self.lane_flights = 0;
+        self.lane_poses = 0;
     }
 
     /// Replays the walk of sample `sample` under law `law` into its
@@ -208,6 +216,8 @@ impl Log {
         }
         acc.reference_flights += self.reference_flights as u64;
         acc.reference_impacts += self.reference_impacts as u64;
+        acc.lane_flights += self.lane_flights as u64;
+        acc.lane_poses += self.lane_poses as u64;
         acc.endings[self.ending as usize] += 1;
         let by = &mut acc.by_ending[self.ending as usize];
         by.axis_up[self.axis_up] += 1;

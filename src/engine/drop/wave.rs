@@ -168,6 +168,9 @@ impl DropCtx<'_> {
                     continue;
                 }
                 harvested += 1;
+                let log = &mut logs[lane.item];
+                log.lane_flights += 1;
+                log.lane_poses += w.times.steps[s] + 1;
                 if w.times.hit[s] {
                     let polish = w.polish.then_some(w.resolution);
                     match self.pending_of(s, lane, w.contact_tolerance, &w.times, &w.poses, polish)

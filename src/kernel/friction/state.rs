@@ -4,9 +4,9 @@
 //! lanes still sweeping. The files beside this one hold the passes.
 
 use crate::config::Scene;
-use crate::physics::friction::JUMP_TOL;
 use crate::lanes::dispatch::BLOCK;
 use crate::lanes::Real;
+use crate::physics::friction::JUMP_TOL;
 
 /// Intervals of the slide angle's grid over [0, 2π).
 pub(super) const GRID: usize = 32;
