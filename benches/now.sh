@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The "now" table of the README and docs/performance.md, measured on the
 # machine it runs on: end to end, two threads, summary statistics only (and
-# one per-sample export), SERIES interleaved series, medians. Prints the
-# table as Markdown, headed by the date, the version and commit, the CPU
+# one per-sample export), SERIES interleaved series, medians; a drop row
+# also gives its lanes' pose evaluations per flight and per sample (the
+# summary's lane_search, the same in every series). Prints the table as
+# Markdown, headed by the date, the version and commit, the CPU
 # model and its SIMD flags; progress goes to stderr.
 #
 # usage: bash benches/now.sh [SERIES] [SCRATCH_DIR]
@@ -49,6 +51,7 @@ rate() {
 
 : > "$out/rates"
 : > "$out/gains"
+: > "$out/poses"
 for s in $(seq "$series"); do
     for i in "${!rows[@]}"; do
         IFS='|' read -r label scene law precision samples flags <<< "${rows[$i]}"
@@ -58,15 +61,18 @@ for s in $(seq "$series"); do
         # An RQMC row's gain on the mean energy ratio, as the run reports it.
         python3 -c 'import json,sys; s=json.load(open(sys.argv[1])); g=s["laws"][sys.argv[2]]["groups"]["all"]["stats"]["energy_ratio"].get("gain"); print(sys.argv[3], g) if g else None' \
             "$out/summary.json" "$law" "$i" >> "$out/gains"
+        # A drop row's pose evaluations per flight and per sample.
+        python3 -c 'import json,sys; d=json.load(open(sys.argv[1])).get("drops", {}).get(sys.argv[2]); q=d and d["lane_search"]; print(sys.argv[3], q["poses_per_flight"], q["poses_per_sample"]) if q and q["poses_per_flight"] else None' \
+            "$out/summary.json" "$law" "$i" >> "$out/poses"
         echo "series $s: $label $precision: $r /s" >&2
     done
 done
 
 describe_machine
 printf '%s\n' "${rows[@]}" > "$out/rows"
-python3 - "$out/rows" "$out/rates" "$out/gains" "$series" "$threads" "$cpu" "${simd:-none}" "$version" "$commit" <<'EOF'
+python3 - "$out/rows" "$out/rates" "$out/gains" "$out/poses" "$series" "$threads" "$cpu" "${simd:-none}" "$version" "$commit" <<'EOF'
 import datetime, statistics, sys
-rows_path, rates_path, gains_path, series, threads, cpu, simd, version, commit = sys.argv[1:]
+rows_path, rates_path, gains_path, poses_path, series, threads, cpu, simd, version, commit = sys.argv[1:]
 rows = [l.rstrip("\n").split("|") for l in open(rows_path)]
 rates = {}
 for line in open(rates_path):
@@ -76,6 +82,10 @@ gains = {}
 for line in open(gains_path):
     i, g = line.split()
     gains.setdefault(int(i), []).append(float(g))
+poses = {}
+for line in open(poses_path):
+    i, per_flight, per_sample = line.split()
+    poses[int(i)] = (float(per_flight), float(per_sample))
 
 def sci(x):
     e = len(str(int(x))) - 1 if x >= 1 else 0
@@ -96,5 +106,7 @@ for i, (label, scene, law, precision, samples, flags) in enumerate(rows):
     runs = ", ".join(f"{r / 10 ** (len(str(int(statistics.median(rs)))) - 1):.2f}" for r in rs)
     if i in gains:
         label += f"; the mean energy ratio's reported gain {statistics.median(gains[i]):.0f}"
+    if i in poses:
+        label += f"; {poses[i][0]:.1f} poses per flight, {poses[i][1]:.1f} per sample"
     print(f"| {label} | {law} | {precision} | {sci(statistics.median(rs))} | {runs} |")
 EOF
