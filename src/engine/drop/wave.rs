@@ -151,9 +151,10 @@ impl DropCtx<'_> {
                 }
             })
         };
-        let mut queue: Vec<(usize, Option<Lane>)> = Vec::with_capacity(BLOCK);
+        let mut queue: Vec<usize> = Vec::with_capacity(BLOCK);
         for s in 0..BLOCK {
-            queue.push((s, take(logs)));
+            w.lanes[s] = take(logs);
+            queue.push(s);
         }
         self.launch(&mut queue, logs, w, &mut take);
         loop {
@@ -201,11 +202,10 @@ impl DropCtx<'_> {
                 if !w.times.done[s] {
                     continue;
                 }
-                let lane = match w.lanes[s].take() {
-                    Some(lane) => Some(lane),
-                    None => take(logs),
-                };
-                queue.push((s, lane));
+                if w.lanes[s].is_none() {
+                    w.lanes[s] = take(logs);
+                }
+                queue.push(s);
             }
             self.launch(&mut queue, logs, w, &mut take);
             if w.lanes.iter().all(Option::is_none) {
@@ -214,46 +214,46 @@ impl DropCtx<'_> {
         }
     }
 
-    /// Each lane `s` of `queue` takes its walk (or idles if none): the
-    /// walk's next flight begins in lanes, after any flights the reference
-    /// flies and walks that end (each replaced by the next waiting walk
-    /// from `take`). The flights' torque-free constants are computed
-    /// together, in lanes.
+    /// Each lane `s` of `queue` flies its walk on (or idles if it has
+    /// none): the walk's next flight begins in lanes, after any flights the
+    /// reference flies and walks that end (each replaced in the lane by the
+    /// next waiting walk from `take`). The flights' torque-free constants
+    /// are computed together, in lanes. The walks stay where they are in
+    /// `w.lanes`; only lane numbers move.
     fn launch<T: Real, const N: usize>(
         &self,
-        queue: &mut Vec<(usize, Option<Lane>)>,
+        queue: &mut Vec<usize>,
         logs: &mut [Log],
         w: &mut Wave<T, N>,
         take: &mut impl FnMut(&mut [Log]) -> Option<Lane>,
     ) {
         let bounces = self.scene.effects().bounces as usize;
-        let mut ready: Vec<(usize, Lane)> = Vec::with_capacity(BLOCK);
+        let mut ready: Vec<usize> = Vec::with_capacity(BLOCK);
         while !queue.is_empty() {
             // Each walk on to its next flight, or ended and replaced.
-            for (s, mut lane) in queue.drain(..) {
-                while let Some(mut l) = lane.take() {
+            for s in queue.drain(..) {
+                while let Some(l) = w.lanes[s].as_mut() {
                     match l.walk.fly(bounces) {
-                        None if w.closed_form && !l.by_reference => ready.push((s, l)),
+                        None if w.closed_form && !l.by_reference => {
+                            ready.push(s);
+                            break;
+                        }
                         None => {
                             let log = &mut logs[l.item];
                             log.reference_flights += 1;
                             let law = self.scene.laws()[l.law];
-                            match self.reference_flight(law, &mut l.walk, log) {
-                                Some(e) => {
-                                    l.walk.finish(e, log);
-                                    lane = take(logs);
-                                }
-                                None => lane = Some(l),
+                            if let Some(e) = self.reference_flight(law, &mut l.walk, log) {
+                                l.walk.finish(e, log);
+                                w.lanes[s] = take(logs);
                             }
                         }
                         Some(e) => {
                             l.walk.finish(e, &mut logs[l.item]);
-                            lane = take(logs);
+                            w.lanes[s] = take(logs);
                         }
                     }
                 }
-                if ready.last().is_none_or(|(r, _)| *r != s) {
-                    w.lanes[s] = None;
+                if w.lanes[s].is_none() {
                     w.times.idle(s);
                 }
             }
@@ -262,7 +262,8 @@ impl DropCtx<'_> {
             }
             // The flights' constants in lanes, then each flight begins (or,
             // if not closed-form, the reference flies it).
-            for (j, (_, l)) in ready.iter().enumerate() {
+            for (j, &s) in ready.iter().enumerate() {
+                let l = w.lanes[s].as_ref().expect("a ready lane has its walk");
                 let r = l.walk.motion.rotation.transpose().to_cols_array();
                 for k in 0..9 {
                     w.setup_in.rotation[k][j] = r[k];
@@ -279,24 +280,21 @@ impl DropCtx<'_> {
                 &mut w.setup_work,
                 &mut w.setup,
             );
-            for (j, (s, mut l)) in ready.drain(..).enumerate() {
+            for (j, s) in ready.drain(..).enumerate() {
                 let body = self.scene.body();
+                let l = w.lanes[s].as_mut().expect("a ready lane has its walk");
                 if w.flights.set_prepared(s, body, &l.walk.motion, &w.setup, j) {
                     w.times.begin(&w.flights, s);
-                    w.lanes[s] = Some(l);
                     continue;
                 }
                 let log = &mut logs[l.item];
                 log.reference_flights += 1;
                 let law = self.scene.laws()[l.law];
-                let next = match self.reference_flight(law, &mut l.walk, log) {
-                    Some(e) => {
-                        l.walk.finish(e, log);
-                        take(logs)
-                    }
-                    None => Some(l),
-                };
-                queue.push((s, next));
+                if let Some(e) = self.reference_flight(law, &mut l.walk, log) {
+                    l.walk.finish(e, log);
+                    w.lanes[s] = take(logs);
+                }
+                queue.push(s);
             }
         }
     }
