@@ -31,14 +31,18 @@ pub fn frame<T: Real, const N: usize>(
             approaching: Status::approaching(i),
             graze: if f32_lanes { c.graze } else { T::ZERO },
         };
-        let out = FrameOut {
-            lever: &mut fr.lever[i],
-            c0: &mut fr.c0[i],
-            w: &mut fr.w[i],
-            b3: &mut fr.b3[i],
-            vn: &mut geo.vn[i],
-        };
-        contact_frame(c, &plane, x, &fr.vscale, out, &mut geo.status);
+        contact_frame(
+            c,
+            &plane,
+            x,
+            &fr.vscale,
+            &mut fr.lever[i],
+            &mut fr.c0[i],
+            &mut fr.w[i],
+            &mut fr.b3[i],
+            &mut geo.vn[i],
+            &mut geo.status,
+        );
         fr.b3_all[i] = fr.b3[i].iter().all(|&b| b);
     }
 }
@@ -83,41 +87,13 @@ struct Plane<T> {
     graze: T,
 }
 
-/// What one plane's frame pass writes: its levers, pre-impact velocities,
-/// Delassus blocks, B3 and normal velocity per lane.
-struct FrameOut<'a, T> {
-    lever: &'a mut [[[T; BLOCK]; 3]; 3],
-    c0: &'a mut [[T; BLOCK]; 3],
-    w: &'a mut [[T; BLOCK]; 6],
-    b3: &'a mut [bool; BLOCK],
-    vn: &'a mut [T; BLOCK],
-}
-
-/// One plane's contact frame in every lane.
-#[inline(always)]
-fn contact_frame<T: Real, const N: usize>(
-    c: &Consts<T, N>,
-    plane: &Plane<T>,
-    x: &Inputs<T>,
-    vscale: &[T; BLOCK],
-    out: FrameOut<'_, T>,
-    status: &mut [Status; BLOCK],
-) {
-    let FrameOut {
-        lever,
-        c0,
-        w,
-        b3,
-        vn,
-    } = out;
-    frame_pass(c, plane, x, vscale, lever, c0, w, b3, vn, status);
-}
-
-/// [`contact_frame`]'s loop, each array it writes its own argument (so
-/// that, inlined, the loop vectoriser knows none overlaps another).
+/// One plane's contact frame in every lane: levers, pre-impact contact
+/// velocities, Delassus blocks, B3, the normal velocity and the status
+/// bits. Each array it writes is its own argument, so that, inlined, the
+/// loop vectoriser knows none overlaps another.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn frame_pass<T: Real, const N: usize>(
+fn contact_frame<T: Real, const N: usize>(
     c: &Consts<T, N>,
     plane: &Plane<T>,
     x: &Inputs<T>,
