@@ -268,6 +268,23 @@ fn drop_corner_from_the_command_line() {
     let sim = &b[0]["simultaneous_within_tolerance"];
     assert_eq!(sim["1e-9"].as_f64(), Some(0.0), "{sim}");
     assert!(sim["1e-1"].as_f64().unwrap() > 0.05, "{sim}");
+    // Every walk makes its five impacts, and every flight is searched in
+    // lanes (none is the reference's at this seed), each evaluating the
+    // pose where it starts and after each step: several steps from the
+    // bounding sphere's clearance down to contact.
+    let d0 = &v["drops"]["newton"];
+    let search = &d0["lane_search"];
+    let flights = search["flights"].as_u64().unwrap();
+    assert_eq!(d0["reference_flights"], 0);
+    assert_eq!(d0["impacts_per_sample"]["5"], 1.0);
+    assert_eq!(flights, 5 * 2000, "{search}");
+    let per_flight = search["poses_per_flight"].as_f64().unwrap();
+    assert!((2.0..100.0).contains(&per_flight), "{search}");
+    let per_sample = search["poses_per_sample"].as_f64().unwrap();
+    assert!(
+        (per_sample - per_flight * flights as f64 / 2000.0).abs() < 1e-9 * per_sample,
+        "{search}"
+    );
     for f in [
         "bounces.parquet",
         "planes_hit.parquet",
