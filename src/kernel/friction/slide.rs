@@ -187,8 +187,9 @@ pub(super) fn setup<T: Real, const N: usize, const COUPLED: bool>(
         ct,
         lanes,
     );
-    stick_case(fc, mu, w, a, ct, stick, stick_ok, stick_no, lanes);
-    slide_case(fc, mu, w, a, ct, coef, m_f, m_d, start, lanes);
+    let free = Free { fc, mu, w, a, ct };
+    stick_case(&free, stick, stick_ok, stick_no, lanes);
+    slide_case(&free, coef, m_f, m_d, start, lanes);
     restart(solve, lanes);
 }
 
@@ -235,25 +236,43 @@ fn free_velocity<T: Real, const COUPLED: bool>(
     }
 }
 
+/// What the stick and slide cases of a visit read: the friction
+/// constants, the contact's μ and Delassus block, and the free velocity's
+/// `a` and `c_t` (only written arrays need be separate arguments).
+struct Free<'a, T, const N: usize> {
+    fc: &'a FrictionConsts<T, N>,
+    mu: T,
+    w: &'a [[T; BLOCK]; 6],
+    a: &'a [T; BLOCK],
+    ct: &'a [[T; BLOCK]; 2],
+}
+
+impl<T: Real, const N: usize> Free<'_, T, N> {
+    /// Lane s's Delassus block, `a` and `c_t`.
+    #[inline(always)]
+    fn lane(&self, s: usize) -> ([T; 6], T, [T; 2]) {
+        (
+            std::array::from_fn(|m| self.w[m][s]),
+            self.a[s],
+            [self.ct[0][s], self.ct[1][s]],
+        )
+    }
+}
+
 /// The stick case of every lane: `W P = (−a, −c_t)` by the symmetric
 /// cofactors, valid when P_n > 0 and |P_t| ≤ μ P_n, each clear of the
 /// band, or clearly not.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn stick_case<T: Real, const N: usize>(
-    fc: &FrictionConsts<T, N>,
-    mu: T,
-    w: &[[T; BLOCK]; 6],
-    a: &[T; BLOCK],
-    ct: &[[T; BLOCK]; 2],
+    free: &Free<'_, T, N>,
     stick: &mut [[T; BLOCK]; 3],
     stick_ok: &mut [bool; BLOCK],
     stick_no: &mut [bool; BLOCK],
     lanes: usize,
 ) {
+    let (fc, mu) = (free.fc, free.mu);
     for s in 0..lanes.min(BLOCK) {
-        let [wnn, w1, w2, pp, q, r] = std::array::from_fn(|m| w[m][s]);
-        let [c1, c2] = [ct[0][s], ct[1][s]];
+        let ([wnn, w1, w2, pp, q, r], a, [c1, c2]) = free.lane(s);
         let k00 = pp.mul_add(r, -(q * q));
         let k01 = w2.mul_add(q, -(w1 * r));
         let k02 = w1.mul_add(q, -(pp * w2));
@@ -261,7 +280,7 @@ fn stick_case<T: Real, const N: usize>(
         let k12 = w1.mul_add(w2, -(wnn * q));
         let k22 = wnn.mul_add(pp, -(w1 * w1));
         let inv = T::ONE / w2.mul_add(k02, w1.mul_add(k01, wnn * k00));
-        let rhs = [-a[s], -c1, -c2];
+        let rhs = [-a, -c1, -c2];
         let p = [
             dot3([k00, k01, k02], rhs) * inv,
             dot3([k01, k11, k12], rhs) * inv,
@@ -279,25 +298,19 @@ fn stick_case<T: Real, const N: usize>(
 
 /// The slide polynomials of every lane, the margins within which their
 /// values decide nothing, and the certified search's start direction.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn slide_case<T: Real, const N: usize>(
-    fc: &FrictionConsts<T, N>,
-    mu: T,
-    w: &[[T; BLOCK]; 6],
-    a: &[T; BLOCK],
-    ct: &[[T; BLOCK]; 2],
+    free: &Free<'_, T, N>,
     coef: &mut [[T; BLOCK]; 6],
     m_f: &mut [T; BLOCK],
     m_d: &mut [T; BLOCK],
     start: &mut [[T; BLOCK]; 2],
     lanes: usize,
 ) {
+    let (fc, mu) = (free.fc, free.mu);
     for s in 0..lanes.min(BLOCK) {
-        let w6: [T; 6] = std::array::from_fn(|m| w[m][s]);
+        let (w6, a, [c1, c2]) = free.lane(s);
         let [wnn, w1, w2, pp, q, r] = w6;
-        let [c1, c2] = [ct[0][s], ct[1][s]];
-        let a = a[s];
         let sl = Slide::new(mu, [c1, c2], a, w6);
         let cf = [sl.a0, sl.a1, sl.b1, sl.a2, sl.b2, sl.n0];
         // Margins: values within rounding (and, in f32, within the inputs'
